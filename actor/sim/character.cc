@@ -1,0 +1,139 @@
+#include "actor/sim/character.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "actor/sim/skeleton.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+const char* kBodyOrder[] = {"root",           "chest",         "neck",
+                            "right_hip",      "right_knee",    "right_ankle",
+                            "right_shoulder", "right_elbow",   "right_wrist",
+                            "left_hip",       "left_knee",     "left_ankle",
+                            "left_shoulder",  "left_elbow",    "left_wrist"};
+const char* kEndEffectors[] = {"right_wrist", "left_wrist", "right_ankle", "left_ankle"};
+
+}  // namespace
+
+std::shared_ptr<const Character> Character::Load(const std::string& path, double timestep) {
+  char error[1000] = "";
+  mjModel* raw = mj_loadXML(path.c_str(), nullptr, error, sizeof(error));
+  if (!raw) throw ConfigError(path + ": cannot load character model: " + error);
+  std::shared_ptr<Character> c(new Character());
+  c->model_.reset(raw);
+  c->path_ = path;
+  c->warnings_ = error;  // a successful load leaves compiler warnings here
+  if (timestep > 0) raw->opt.timestep = timestep;
+  const mjModel* m = raw;
+  auto fail = [&path](const std::string& message) { throw ConfigError(path + ": " + message); };
+
+  for (const char* name : kBodyOrder) {
+    int id = mj_name2id(m, mjOBJ_BODY, name);
+    if (id < 0) fail(std::string("missing body '") + name + "'");
+    c->bodies_.push_back(id);
+  }
+  for (const char* name : kEndEffectors) c->end_effectors_.push_back(c->BodyId(name));
+  int root = c->bodies_[0];
+  if (m->body_jntnum[root] != 1 || m->jnt_type[m->body_jntadr[root]] != mjJNT_FREE ||
+      m->jnt_qposadr[m->body_jntadr[root]] != 0) {
+    fail("body 'root' must have a single free joint, the model's first joint");
+  }
+  c->total_mass_ = 0;
+  for (int b : c->bodies_) c->total_mass_ += m->body_mass[b];
+
+  for (const auto& sj : Humanoid3dJoints()) {
+    CharacterJoint joint;
+    joint.name = sj.name;
+    joint.body = c->BodyId(sj.name);
+    int expected = sj.type == JointType::kSpherical ? 3 : 1;
+    if (m->body_jntnum[joint.body] != expected) {
+      fail("joint '" + sj.name + "' must be built of " + std::to_string(expected) + " hinge(s)");
+    }
+    joint.axes.count = expected;
+    int first = m->body_jntadr[joint.body];
+    joint.qpos_address = m->jnt_qposadr[first];
+    joint.dof_address = m->jnt_dofadr[first];
+    bool used[3] = {false, false, false};
+    for (int h = 0; h < expected; ++h) {
+      int jnt = first + h;
+      const char* hname = mj_id2name(m, mjOBJ_JOINT, jnt);
+      std::string where = "joint '" + sj.name + "' hinge " + (hname ? hname : "?");
+      if (m->jnt_type[jnt] != mjJNT_HINGE) fail(where + ": must be a hinge");
+      if (!m->jnt_limited[jnt]) fail(where + ": must have a range");
+      // Hinge axes must be signed coordinate axes of the body frame, all different.
+      const mjtNum* axis = m->jnt_axis + 3 * jnt;
+      int k = static_cast<int>(std::max_element(axis, axis + 3,
+                                                [](double a, double b) {
+                                                  return std::abs(a) < std::abs(b);
+                                                }) -
+                               axis);
+      if (std::abs(std::abs(axis[k]) - 1) > 1e-9 || used[k]) {
+        fail(where + ": axes must be distinct coordinate axes (e.g. \"0 1 0\")");
+      }
+      used[k] = true;
+      joint.axes.axis[h] = k;
+      joint.axes.sign[h] = axis[k] > 0 ? 1.0 : -1.0;
+
+      ActuatedHinge hinge;
+      hinge.name = hname ? hname : sj.name;
+      hinge.joint = static_cast<int>(c->joints_.size());
+      hinge.qpos_address = m->jnt_qposadr[jnt];
+      hinge.dof_address = m->jnt_dofadr[jnt];
+      hinge.lower = m->jnt_range[2 * jnt];
+      hinge.upper = m->jnt_range[2 * jnt + 1];
+      hinge.actuator = -1;
+      for (int a = 0; a < m->nu; ++a) {
+        if (m->actuator_trntype[a] == mjTRN_JOINT && m->actuator_trnid[2 * a] == jnt) {
+          hinge.actuator = a;
+        }
+      }
+      if (hinge.actuator < 0) fail(where + ": has no actuator");
+      // A position actuator: force = kp * (ctrl - q), i.e. gain kp and bias (0, -kp, *).
+      int a = hinge.actuator;
+      if (m->actuator_gaintype[a] != mjGAIN_FIXED || m->actuator_biastype[a] != mjBIAS_AFFINE ||
+          m->actuator_biasprm[mjNBIAS * a + 1] != -m->actuator_gainprm[mjNGAIN * a]) {
+        fail(where + ": its actuator must be a <position> actuator (a PD target)");
+      }
+      c->hinges_.push_back(hinge);
+    }
+    c->joints_.push_back(joint);
+  }
+  if (static_cast<int>(c->hinges_.size()) != m->nu) {
+    fail("expected one actuator per hinge (" + std::to_string(c->hinges_.size()) + "), found " +
+         std::to_string(m->nu));
+  }
+  // Order hinges as the actuators are declared, so action i drives actuator i.
+  std::sort(c->hinges_.begin(), c->hinges_.end(),
+            [](const ActuatedHinge& a, const ActuatedHinge& b) { return a.actuator < b.actuator; });
+  return c;
+}
+
+int Character::BodyId(const std::string& name) const {
+  int id = mj_name2id(model_.get(), mjOBJ_BODY, name.c_str());
+  if (id < 0) throw ConfigError(path_ + ": missing body '" + name + "'");
+  return id;
+}
+
+void Character::PoseToQpos(const Pose& pose, double* qpos) const {
+  for (int k = 0; k < 3; ++k) qpos[k] = pose.root_position[k];
+  for (int k = 0; k < 4; ++k) qpos[3 + k] = pose.root_rotation[k];
+  const mjModel* m = model_.get();
+  for (size_t j = 0; j < joints_.size(); ++j) {
+    const CharacterJoint& joint = joints_[j];
+    double* q = qpos + joint.qpos_address;
+    DecomposeHinges(joint.axes, pose.joint_rotations[j], q);
+    int first = m->body_jntadr[joint.body];
+    for (int h = 0; h < joint.axes.count; ++h) {
+      q[h] = std::clamp(q[h], m->jnt_range[2 * (first + h)], m->jnt_range[2 * (first + h) + 1]);
+    }
+  }
+}
+
+Quat Character::JointRotation(const double* qpos, int j) const {
+  return ComposeHinges(joints_[j].axes, qpos + joints_[j].qpos_address);
+}
+
+}  // namespace ragdoll::sim

@@ -1,0 +1,77 @@
+#include "actor/sim/env_config.h"
+
+#include <cmath>
+
+#include "actor/sim/skeleton.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+double Positive(const ConfigSection& s, const std::string& key, double fallback) {
+  double v = s.Get<double>(key, fallback);
+  if (!std::isfinite(v) || v <= 0) s.Fail(key, "must be a positive number, got " + std::to_string(v));
+  return v;
+}
+
+double NonNegative(const ConfigSection& s, const std::string& key, double fallback) {
+  double v = s.Get<double>(key, fallback);
+  if (!std::isfinite(v) || v < 0) s.Fail(key, "must be zero or more, got " + std::to_string(v));
+  return v;
+}
+
+}  // namespace
+
+EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_character) {
+  EnvConfig c;
+  c.character = s.GetPath("character", default_character);
+  c.motion = s.GetPath("motion", "");
+  if (c.motion.empty()) s.Fail("motion", "required: the reference clip to imitate");
+  c.control_frequency = Positive(s, "control_frequency", c.control_frequency);
+  c.substeps = s.Get<int>("substeps", c.substeps);
+  if (c.substeps < 1) s.Fail("substeps", "must be at least 1");
+  c.max_episode_steps = s.Get<int>("max_episode_steps", c.max_episode_steps);
+  if (c.max_episode_steps < 1) s.Fail("max_episode_steps", "must be at least 1");
+  std::string mode = s.Get<std::string>("action_mode", "absolute");
+  if (mode == "absolute") {
+    c.action_mode = ActionMode::kAbsolute;
+  } else if (mode == "offset") {
+    c.action_mode = ActionMode::kOffset;
+  } else {
+    s.Fail("action_mode", "expected 'absolute' or 'offset', got '" + mode + "'");
+  }
+  c.offset_scale = Positive(s, "offset_scale", c.offset_scale);
+  c.random_start = s.Get<bool>("random_start", c.random_start);
+  c.start_phase = s.Get<double>("start_phase", c.start_phase);
+  if (!(c.start_phase >= 0 && c.start_phase < 1)) s.Fail("start_phase", "must be in [0, 1)");
+  c.allowed_contacts = s.GetStringList("allowed_contacts", c.allowed_contacts);
+  c.max_root_distance = Positive(s, "max_root_distance", c.max_root_distance);
+
+  ConfigSection weights = s.Section("joint_weights");
+  for (auto& [name, w] : c.joint_weights) w = NonNegative(weights, name, w);
+  weights.Finish();
+
+  ConfigSection r = s.Section("reward");
+  RewardConfig& rc = c.reward;
+  rc.rotation_weight = NonNegative(r, "rotation_weight", rc.rotation_weight);
+  rc.velocity_weight = NonNegative(r, "velocity_weight", rc.velocity_weight);
+  rc.end_effector_weight = NonNegative(r, "end_effector_weight", rc.end_effector_weight);
+  rc.com_weight = NonNegative(r, "com_weight", rc.com_weight);
+  rc.root_weight = NonNegative(r, "root_weight", rc.root_weight);
+  rc.rotation_scale = NonNegative(r, "rotation_scale", rc.rotation_scale);
+  rc.velocity_scale = NonNegative(r, "velocity_scale", rc.velocity_scale);
+  rc.end_effector_scale = NonNegative(r, "end_effector_scale", rc.end_effector_scale);
+  rc.com_scale = NonNegative(r, "com_scale", rc.com_scale);
+  rc.root_scale = NonNegative(r, "root_scale", rc.root_scale);
+  rc.root_rotation_factor = NonNegative(r, "root_rotation_factor", rc.root_rotation_factor);
+  rc.root_linear_velocity_factor =
+      NonNegative(r, "root_linear_velocity_factor", rc.root_linear_velocity_factor);
+  rc.root_angular_velocity_factor =
+      NonNegative(r, "root_angular_velocity_factor", rc.root_angular_velocity_factor);
+  if (rc.MaxReward() <= 0) r.Fail("rotation_weight", "at least one reward weight must be positive");
+  r.Finish();
+  s.Finish();
+  return c;
+}
+
+}  // namespace ragdoll::sim

@@ -1,0 +1,294 @@
+#include "actor/sim/imitation_env.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "actor/sim/observation.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+// Half-width of the central difference that turns reference joint angles into joint velocities.
+// Well under a key-frame interval (33 ms at 30 fps), well above rounding.
+constexpr double kVelocityStep = 1e-3;
+
+}  // namespace
+
+const char* EpisodeEndName(EpisodeEnd end) {
+  switch (end) {
+    case EpisodeEnd::kRunning: return "running";
+    case EpisodeEnd::kFell: return "fell";
+    case EpisodeEnd::kStrayed: return "strayed";
+    case EpisodeEnd::kUnstable: return "unstable";
+    case EpisodeEnd::kTimeLimit: return "time_limit";
+    case EpisodeEnd::kClipEnd: return "clip_end";
+  }
+  return "?";
+}
+
+ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
+                           std::shared_ptr<const MotionClip> clip, const EnvConfig& config,
+                           uint64_t seed)
+    : character_(std::move(character)),
+      clip_(std::move(clip)),
+      config_(config),
+      rng_(seed),
+      data_(character_->MakeData()),
+      ref_data_(character_->MakeData()) {
+  const mjModel* m = character_->model();
+  if (std::abs(m->opt.timestep - config_.physics_dt()) > 1e-12) {
+    throw std::invalid_argument("character timestep " + std::to_string(m->opt.timestep) +
+                                " s differs from the config's physics step " +
+                                std::to_string(config_.physics_dt()) + " s");
+  }
+  const auto& joints = character_->joints();
+  for (const auto& [name, w] : config_.joint_weights) {
+    bool found = std::any_of(joints.begin(), joints.end(),
+                             [&name = name](const CharacterJoint& j) { return j.name == name; });
+    if (!found) throw ConfigError("joint_weights: the character has no joint '" + name + "'");
+  }
+  for (const auto& j : joints) {
+    auto it = config_.joint_weights.find(j.name);
+    joint_weights_.push_back(it == config_.joint_weights.end() ? 0.0 : it->second);
+  }
+  for (const auto& h : character_->hinges()) hinge_joint_.push_back(h.joint);
+  may_touch_ground_.assign(m->nbody, 0);
+  for (const auto& name : config_.allowed_contacts) {
+    int id = mj_name2id(m, mjOBJ_BODY, name.c_str());
+    if (id < 0) {
+      throw ConfigError("allowed_contacts: the character has no body '" + name + "'");
+    }
+    may_touch_ground_[id] = 1;
+  }
+
+  spec_.observation_size = ObservationSize(*character_);
+  spec_.observation_names = ObservationNames(*character_);
+  spec_.action_size = static_cast<int>(character_->hinges().size());
+  for (const auto& h : character_->hinges()) spec_.action_names.push_back(h.name);
+  spec_.control_dt = config_.control_dt();
+  spec_.max_episode_steps = config_.max_episode_steps;
+  spec_.max_reward_per_step = config_.reward.MaxReward();
+
+  scratch_qpos_.resize(m->nq);
+  scratch_qvel_.resize(m->nv);
+}
+
+void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const {
+  const mjModel* m = character_->model();
+  character_->PoseToQpos(clip_->Sample(time), qpos);
+  PoseVelocity v = clip_->SampleVelocity(time);
+  for (int k = 0; k < 3; ++k) {
+    qvel[k] = v.root_linear[k];
+    qvel[3 + k] = v.root_angular[k];
+  }
+  // Hinge velocities: a central difference of the decomposed (and clamped) angles, so that the
+  // reference velocity is exactly the rate of change of the reference joint coordinates.
+  std::vector<double> before(m->nq), after(m->nq);
+  character_->PoseToQpos(clip_->Sample(time - kVelocityStep), before.data());
+  character_->PoseToQpos(clip_->Sample(time + kVelocityStep), after.data());
+  for (const auto& h : character_->hinges()) {
+    qvel[h.dof_address] =
+        (after[h.qpos_address] - before[h.qpos_address]) / (2 * kVelocityStep);
+  }
+}
+
+void ImitationEnv::Reset(float* observation) {
+  double phase = config_.start_phase;
+  if (config_.random_start) {
+    phase = std::uniform_real_distribution<double>(0.0, 1.0)(rng_);
+  }
+  ResetAtPhase(phase, observation);
+}
+
+void ImitationEnv::ResetAtPhase(double phase, float* observation) {
+  const mjModel* m = character_->model();
+  mjData* d = data_.get();
+  mj_resetData(m, d);
+  time_ = phase * clip_->duration();
+  ReferenceState(time_, d->qpos, d->qvel);
+  mj_forward(m, d);
+
+  episode_ = EpisodeStats();
+  term_sums_ = RewardTerms();
+  episode_.max_length = config_.max_episode_steps;
+  if (!clip_->loop()) {
+    int remaining = static_cast<int>(std::floor((clip_->duration() - time_) / config_.control_dt() +
+                                                1e-9));
+    episode_.max_length = std::clamp(remaining, 1, config_.max_episode_steps);
+  }
+  BuildObservation(*character_, *d, clip_->Phase(time_), observation);
+}
+
+void ImitationEnv::ReferenceAction(float* action) const {
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  ReferenceState(time_ + config_.control_dt(), qpos.data(), qvel.data());
+  const auto& hinges = character_->hinges();
+  for (size_t i = 0; i < hinges.size(); ++i) {
+    if (config_.action_mode == ActionMode::kOffset) {
+      action[i] = 0;
+    } else {
+      const ActuatedHinge& h = hinges[i];
+      action[i] = static_cast<float>(2 * (qpos[h.qpos_address] - h.lower) / (h.upper - h.lower) - 1);
+    }
+  }
+}
+
+void ImitationEnv::SetState(const double* qpos, const double* qvel) {
+  const mjModel* m = character_->model();
+  std::copy(qpos, qpos + m->nq, data_->qpos);
+  std::copy(qvel, qvel + m->nv, data_->qvel);
+  mj_forward(m, data_.get());
+}
+
+void ImitationEnv::Features(const mjData& d, PoseFeatures* f) const {
+  const Character& c = *character_;
+  const mjModel* m = c.model();
+  const auto& joints = c.joints();
+  f->joint_rotations.resize(joints.size());
+  for (size_t j = 0; j < joints.size(); ++j) {
+    f->joint_rotations[j] = c.JointRotation(d.qpos, static_cast<int>(j));
+  }
+  const auto& hinges = c.hinges();
+  f->joint_velocities.resize(hinges.size());
+  for (size_t i = 0; i < hinges.size(); ++i) f->joint_velocities[i] = d.qvel[hinges[i].dof_address];
+  const double* root = d.xpos + 3 * c.root_body();
+  f->end_effectors.resize(c.end_effectors().size());
+  for (size_t e = 0; e < c.end_effectors().size(); ++e) {
+    const double* p = d.xpos + 3 * c.end_effectors()[e];
+    f->end_effectors[e] = {p[0] - root[0], p[1] - root[1], p[2] - root[2]};
+  }
+  Vec3 com = {0, 0, 0};
+  for (int b : c.bodies()) {
+    for (int k = 0; k < 3; ++k) com[k] += m->body_mass[b] * d.xipos[3 * b + k];
+  }
+  for (double& x : com) x /= c.total_mass();
+  f->com = com;
+  f->root_position = {d.qpos[0], d.qpos[1], d.qpos[2]};
+  f->root_rotation = {d.qpos[3], d.qpos[4], d.qpos[5], d.qpos[6]};
+  f->root_linear_velocity = {d.qvel[0], d.qvel[1], d.qvel[2]};
+  f->root_angular_velocity = {d.qvel[3], d.qvel[4], d.qvel[5]};
+}
+
+bool ImitationEnv::Diverged() const {
+  const mjModel* m = character_->model();
+  const mjData* d = data_.get();
+  // MuJoCo resets the state itself on a bad acceleration and records a warning.
+  if (d->warning[mjWARN_BADQACC].number > 0 || d->warning[mjWARN_BADQPOS].number > 0 ||
+      d->warning[mjWARN_BADQVEL].number > 0) {
+    return true;
+  }
+  for (int i = 0; i < m->nq; ++i) {
+    if (!std::isfinite(d->qpos[i])) return true;
+  }
+  for (int i = 0; i < m->nv; ++i) {
+    if (!std::isfinite(d->qvel[i])) return true;
+  }
+  return false;
+}
+
+EpisodeEnd ImitationEnv::CheckTermination() const {
+  const mjModel* m = character_->model();
+  const mjData* d = data_.get();
+  for (int i = 0; i < d->ncon; ++i) {
+    int b1 = m->geom_bodyid[d->contact[i].geom1];
+    int b2 = m->geom_bodyid[d->contact[i].geom2];
+    int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);  // body 0 is the world: the ground
+    if (other > 0 && !may_touch_ground_[other]) return EpisodeEnd::kFell;
+  }
+  double distance2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double e = d->qpos[k] - ref_data_->qpos[k];
+    distance2 += e * e;
+  }
+  if (distance2 > config_.max_root_distance * config_.max_root_distance) {
+    return EpisodeEnd::kStrayed;
+  }
+  return EpisodeEnd::kRunning;
+}
+
+StepResult ImitationEnv::Step(const float* action, float* observation) {
+  const mjModel* m = character_->model();
+  mjData* d = data_.get();
+  mjData* ref = ref_data_.get();
+  const double next_time = time_ + config_.control_dt();
+  ReferenceState(next_time, ref->qpos, ref->qvel);
+
+  const auto& hinges = character_->hinges();
+  for (size_t i = 0; i < hinges.size(); ++i) {
+    const ActuatedHinge& h = hinges[i];
+    double a = action[i];
+    if (!std::isfinite(a)) {
+      ++bad_actions_;
+      a = 0;
+    }
+    a = std::clamp(a, -1.0, 1.0);
+    double target;
+    if (config_.action_mode == ActionMode::kOffset) {
+      target = ref->qpos[h.qpos_address] + a * config_.offset_scale * 0.5 * (h.upper - h.lower);
+    } else {
+      target = h.lower + 0.5 * (a + 1) * (h.upper - h.lower);
+    }
+    d->ctrl[h.actuator] = std::clamp(target, h.lower, h.upper);
+  }
+
+  // mj_step = mj_step1 (positions, velocities, contacts) + mj_step2 (forces, integration).
+  // Running step1 after each integration instead of before keeps every derived quantity in
+  // `d` current for the observation and reward at no extra cost (Euler integrator).
+  for (int s = 0; s < config_.substeps; ++s) {
+    mj_step2(m, d);
+    mj_step1(m, d);
+  }
+  time_ = next_time;
+  ++episode_.length;
+
+  StepResult result;
+  if (Diverged()) {
+    ++unstable_resets_;
+    episode_.end = EpisodeEnd::kUnstable;
+    result.terminated = true;
+    // Leave a finite observation: the reference pose.
+    mj_resetData(m, d);
+    std::copy(ref->qpos, ref->qpos + m->nq, d->qpos);
+    std::copy(ref->qvel, ref->qvel + m->nv, d->qvel);
+    mj_forward(m, d);
+  } else {
+    mj_kinematics(m, ref);
+    Features(*d, &sim_features_);
+    Features(*ref, &ref_features_);
+    RewardErrors errors =
+        ImitationErrors(config_.reward, joint_weights_, hinge_joint_, sim_features_, ref_features_);
+    result.terms = ImitationReward(config_.reward, errors);
+    result.reward = result.terms.total;
+    EpisodeEnd end = CheckTermination();
+    if (end != EpisodeEnd::kRunning) {
+      episode_.end = end;
+      result.terminated = true;
+    } else if (episode_.length >= episode_.max_length) {
+      episode_.end = clip_->loop() || episode_.max_length == config_.max_episode_steps
+                         ? EpisodeEnd::kTimeLimit
+                         : EpisodeEnd::kClipEnd;
+      result.truncated = true;
+    }
+  }
+
+  episode_.episode_return += result.reward;
+  term_sums_.rotation += result.terms.rotation;
+  term_sums_.velocity += result.terms.velocity;
+  term_sums_.end_effector += result.terms.end_effector;
+  term_sums_.com += result.terms.com;
+  term_sums_.root += result.terms.root;
+  term_sums_.total += result.terms.total;
+  double n = episode_.length;
+  episode_.mean_terms = {term_sums_.rotation / n, term_sums_.velocity / n,
+                         term_sums_.end_effector / n, term_sums_.com / n,
+                         term_sums_.root / n, term_sums_.total / n};
+  episode_.normalized_return =
+      episode_.episode_return / (spec_.max_reward_per_step * episode_.max_length);
+
+  BuildObservation(*character_, *d, clip_->Phase(time_), observation);
+  return result;
+}
+
+}  // namespace ragdoll::sim

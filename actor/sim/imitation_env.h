@@ -1,0 +1,123 @@
+// The imitation environment: a MuJoCo ragdoll rewarded for following a reference clip
+// (DeepMimic). Three methods, as in EnvPool: Reset, Step, spec().
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "actor/sim/character.h"
+#include "actor/sim/env_config.h"
+#include "actor/sim/imitation_reward.h"
+#include "actor/sim/motion_clip.h"
+
+namespace ragdoll::sim {
+
+struct EnvSpec {
+  int observation_size = 0;
+  int action_size = 0;
+  std::vector<std::string> observation_names;
+  std::vector<std::string> action_names;  // one per actuated hinge
+  double control_dt = 0;
+  int max_episode_steps = 0;
+  double max_reward_per_step = 0;
+};
+
+// Why an episode ended.
+enum class EpisodeEnd {
+  kRunning,
+  kFell,      // a body outside allowed_contacts touched the ground (terminated)
+  kStrayed,   // the root left the reference by more than max_root_distance (terminated)
+  kUnstable,  // the simulation diverged (terminated; counted in unstable_resets())
+  kTimeLimit, // max_episode_steps reached (truncated)
+  kClipEnd,   // a clip that does not loop ran out (truncated)
+};
+
+struct StepResult {
+  double reward = 0;
+  RewardTerms terms;
+  bool terminated = false;  // the episode ended in a failure state: its value is 0
+  bool truncated = false;   // the episode was cut short: bootstrap from the final observation
+};
+
+struct EpisodeStats {
+  double episode_return = 0;
+  // episode_return / (max reward per step * the longest this episode could have run)
+  double normalized_return = 0;
+  int length = 0;
+  int max_length = 0;
+  RewardTerms mean_terms;  // per-step mean of each term
+  EpisodeEnd end = EpisodeEnd::kRunning;
+  bool fell() const {
+    return end == EpisodeEnd::kFell || end == EpisodeEnd::kStrayed || end == EpisodeEnd::kUnstable;
+  }
+};
+
+class ImitationEnv {
+ public:
+  // The character's model timestep must equal config.physics_dt() (load it with
+  // Character::Load(path, config.physics_dt())). Throws ConfigError for names in the config
+  // that the character lacks.
+  ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionClip> clip,
+               const EnvConfig& config, uint64_t seed);
+
+  const EnvSpec& spec() const { return spec_; }
+
+  // Starts an episode in the reference state (pose and velocities) at a random phase, or at
+  // config.start_phase when random_start is off. Writes the first observation.
+  void Reset(float* observation);
+  void ResetAtPhase(double phase, float* observation);
+
+  // Applies `action` (spec().action_size values, clipped to [-1, 1]; non-finite values count in
+  // bad_actions() and act as 0) for one control step of config.substeps physics steps, and
+  // writes the next observation. After a step that terminates or truncates, call Reset.
+  StepResult Step(const float* action, float* observation);
+
+  // The current episode so far (complete once a step has ended it).
+  const EpisodeStats& episode() const { return episode_; }
+  // The action that sets every PD target to the reference pose of the next control step: the
+  // "PD tracking, no learning" baseline.
+  void ReferenceAction(float* action) const;
+
+  // Replaces the simulated state (for tests and perturbation tools); keeps the episode going.
+  void SetState(const double* qpos, const double* qvel);
+  const mjData& data() const { return *data_; }
+  const Character& character() const { return *character_; }
+  const MotionClip& clip() const { return *clip_; }
+  double time() const { return time_; }
+  double phase() const { return clip_->Phase(time_); }
+  int64_t bad_actions() const { return bad_actions_; }
+  int64_t unstable_resets() const { return unstable_resets_; }
+
+  // Joint coordinates and velocities of the reference at clip time `time` (nq and nv values).
+  void ReferenceState(double time, double* qpos, double* qvel) const;
+
+ private:
+  void Features(const mjData& d, PoseFeatures* out) const;
+  bool Diverged() const;
+  EpisodeEnd CheckTermination() const;
+
+  std::shared_ptr<const Character> character_;
+  std::shared_ptr<const MotionClip> clip_;
+  EnvConfig config_;
+  EnvSpec spec_;
+  std::mt19937_64 rng_;
+  DataPtr data_;
+  DataPtr ref_data_;  // the reference pose, kinematics only
+  std::vector<double> joint_weights_;  // per skeleton joint
+  std::vector<int> hinge_joint_;       // skeleton joint of each actuated hinge
+  std::vector<char> may_touch_ground_;  // per body
+  std::vector<double> scratch_qpos_, scratch_qvel_;
+  PoseFeatures sim_features_, ref_features_;
+  double time_ = 0;
+  EpisodeStats episode_;
+  RewardTerms term_sums_;
+  int64_t bad_actions_ = 0;
+  int64_t unstable_resets_ = 0;
+};
+
+const char* EpisodeEndName(EpisodeEnd end);
+
+}  // namespace ragdoll::sim

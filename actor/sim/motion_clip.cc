@@ -1,0 +1,150 @@
+#include "actor/sim/motion_clip.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "actor/sim/skeleton.h"
+
+namespace ragdoll::sim {
+namespace {
+
+// Quaternions in clip files carry six decimals; anything further from unit norm is an error in
+// the file, not rounding.
+constexpr double kUnitTolerance = 1e-3;
+
+void CheckQuat(const Quat& q, int frame, const std::string& field) {
+  double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!std::isfinite(norm) || std::abs(norm - 1) > kUnitTolerance) {
+    throw std::invalid_argument("frame " + std::to_string(frame) + ": " + field +
+                                ": quaternion is not unit length (norm " + std::to_string(norm) +
+                                ")");
+  }
+}
+
+}  // namespace
+
+MotionClip::MotionClip(std::string name, bool loop, std::vector<double> frame_durations,
+                       std::vector<Pose> frames)
+    : name_(std::move(name)),
+      loop_(loop),
+      durations_(std::move(frame_durations)),
+      frames_(std::move(frames)) {
+  if (frames_.size() < 2) {
+    throw std::invalid_argument("a clip needs at least two frames, got " +
+                                std::to_string(frames_.size()));
+  }
+  if (durations_.size() != frames_.size()) {
+    throw std::invalid_argument("got " + std::to_string(durations_.size()) +
+                                " frame durations for " + std::to_string(frames_.size()) +
+                                " frames");
+  }
+  const auto& joints = Humanoid3dJoints();
+  start_times_.assign(1, 0.0);
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    int f = static_cast<int>(i);
+    Pose& pose = frames_[i];
+    if (i + 1 < frames_.size()) {
+      if (!std::isfinite(durations_[i]) || durations_[i] <= 0) {
+        throw std::invalid_argument("frame " + std::to_string(f) +
+                                    ": duration must be positive, got " +
+                                    std::to_string(durations_[i]));
+      }
+      start_times_.push_back(start_times_.back() + durations_[i]);
+    }
+    for (double c : pose.root_position) {
+      if (!std::isfinite(c)) {
+        throw std::invalid_argument("frame " + std::to_string(f) +
+                                    ": root position is not finite");
+      }
+    }
+    if (pose.joint_rotations.size() != joints.size()) {
+      throw std::invalid_argument("frame " + std::to_string(f) + ": expected " +
+                                  std::to_string(joints.size()) + " joint rotations, got " +
+                                  std::to_string(pose.joint_rotations.size()));
+    }
+    CheckQuat(pose.root_rotation, f, "root rotation");
+    pose.root_rotation = Normalized(pose.root_rotation);
+    for (size_t j = 0; j < joints.size(); ++j) {
+      CheckQuat(pose.joint_rotations[j], f, joints[j].name);
+      pose.joint_rotations[j] = Normalized(pose.joint_rotations[j]);
+    }
+  }
+  if (loop_) {
+    const Vec3& first = frames_.front().root_position;
+    const Vec3& last = frames_.back().root_position;
+    cycle_displacement_ = {last[0] - first[0], last[1] - first[1], 0};
+  }
+}
+
+void MotionClip::Locate(double time, int* index, double* alpha, double* cycles) const {
+  double d = duration();
+  *cycles = 0;
+  if (loop_) {
+    *cycles = std::floor(time / d);
+    time -= *cycles * d;
+  } else {
+    time = std::fmin(std::fmax(time, 0.0), d);
+  }
+  // Key frames are few (tens); a binary search over start times.
+  int lo = 0, hi = num_frames() - 1;
+  while (hi - lo > 1) {
+    int mid = (lo + hi) / 2;
+    if (start_times_[mid] <= time) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  *index = lo;
+  *alpha = std::fmin(std::fmax((time - start_times_[lo]) / durations_[lo], 0.0), 1.0);
+}
+
+double MotionClip::Phase(double time) const {
+  double d = duration();
+  if (loop_) return time / d - std::floor(time / d);
+  return std::fmin(std::fmax(time / d, 0.0), 1.0);
+}
+
+Pose MotionClip::Sample(double time) const {
+  int i;
+  double alpha, cycles;
+  Locate(time, &i, &alpha, &cycles);
+  const Pose& a = frames_[i];
+  const Pose& b = frames_[i + 1];
+  Pose out;
+  for (int k = 0; k < 3; ++k) {
+    out.root_position[k] = (1 - alpha) * a.root_position[k] + alpha * b.root_position[k] +
+                           cycles * cycle_displacement_[k];
+  }
+  out.root_rotation = Slerp(a.root_rotation, b.root_rotation, alpha);
+  out.joint_rotations.resize(a.joint_rotations.size());
+  for (size_t j = 0; j < a.joint_rotations.size(); ++j) {
+    out.joint_rotations[j] = Slerp(a.joint_rotations[j], b.joint_rotations[j], alpha);
+  }
+  return out;
+}
+
+PoseVelocity MotionClip::SampleVelocity(double time) const {
+  int i;
+  double alpha, cycles;
+  Locate(time, &i, &alpha, &cycles);
+  PoseVelocity out;
+  if (!loop_ && (time < 0 || time > duration())) {  // holding a pose
+    out.joint_angular.assign(frames_[0].joint_rotations.size(), {0, 0, 0});
+    return out;
+  }
+  const Pose& a = frames_[i];
+  const Pose& b = frames_[i + 1];
+  double dt = durations_[i];
+  for (int k = 0; k < 3; ++k) out.root_linear[k] = (b.root_position[k] - a.root_position[k]) / dt;
+  // Slerp turns at a constant rate about a fixed axis, so the velocity in the current frame
+  // equals the one in the key frame's frame.
+  out.root_angular = AngularVelocity(a.root_rotation, b.root_rotation, dt);
+  out.joint_angular.resize(a.joint_rotations.size());
+  for (size_t j = 0; j < a.joint_rotations.size(); ++j) {
+    out.joint_angular[j] = AngularVelocity(a.joint_rotations[j], b.joint_rotations[j], dt);
+  }
+  return out;
+}
+
+}  // namespace ragdoll::sim

@@ -1,0 +1,69 @@
+// A reference animation clip of the humanoid3d skeleton: timed key frames of the root's position
+// and rotation and every joint's local rotation, sampled at any time with interpolation.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "actor/sim/rotation.h"
+
+namespace ragdoll::sim {
+
+// A kinematic pose. Z-up world, metres; rotations are unit quaternions (w, x, y, z).
+struct Pose {
+  Vec3 root_position = {0, 0, 0};
+  Quat root_rotation = kIdentityQuat;
+  // One per joint of Humanoid3dJoints(), each relative to its parent body.
+  std::vector<Quat> joint_rotations;
+};
+
+// The time derivative of a clip's pose.
+struct PoseVelocity {
+  Vec3 root_linear = {0, 0, 0};   // world frame, m/s
+  Vec3 root_angular = {0, 0, 0};  // root's own frame, rad/s (MuJoCo's free-joint convention)
+  std::vector<Vec3> joint_angular;  // each joint's own (child) frame, rad/s
+};
+
+class MotionClip {
+ public:
+  // `frame_durations[i]` is the time from frame i to frame i + 1 (the last entry is unused).
+  // A looping clip's last frame closes the cycle: it is the first pose, displaced by however far
+  // the root travels in one cycle. Throws std::invalid_argument naming the frame and field on
+  // fewer than two frames, non-positive or non-finite durations, wrong joint counts or non-unit
+  // quaternions.
+  MotionClip(std::string name, bool loop, std::vector<double> frame_durations,
+             std::vector<Pose> frames);
+
+  const std::string& name() const { return name_; }
+  bool loop() const { return loop_; }
+  // Length of one pass (one cycle for a looping clip), seconds.
+  double duration() const { return start_times_.back(); }
+  int num_frames() const { return static_cast<int>(frames_.size()); }
+  const Pose& frame(int i) const { return frames_[i]; }
+  double frame_time(int i) const { return start_times_[i]; }
+  double frame_duration(int i) const { return durations_[i]; }
+  // Horizontal root displacement over one cycle (zero for a clip that does not loop).
+  const Vec3& cycle_displacement() const { return cycle_displacement_; }
+
+  // Phase in [0, 1] of `time` within the current cycle (clamped for a clip that does not loop).
+  double Phase(double time) const;
+  // The pose at `time` seconds: positions interpolated linearly, rotations by slerp. A looping
+  // clip repeats forever, its root advanced by cycle_displacement() each cycle; other clips hold
+  // their first or last pose outside [0, duration()].
+  Pose Sample(double time) const;
+  // The velocity at `time`: the derivative of Sample() (constant between two key frames).
+  PoseVelocity SampleVelocity(double time) const;
+
+ private:
+  // Key frame index i and blend alpha in [0, 1) for `time`, plus whole cycles elapsed.
+  void Locate(double time, int* index, double* alpha, double* cycles) const;
+
+  std::string name_;
+  bool loop_;
+  std::vector<double> durations_;
+  std::vector<double> start_times_;
+  std::vector<Pose> frames_;
+  Vec3 cycle_displacement_ = {0, 0, 0};
+};
+
+}  // namespace ragdoll::sim

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs every Debian package ragdoll needs to build, test and run. Idempotent: packages that
+# are already installed are left alone, so running it again is cheap.
+set -euo pipefail
+
+packages=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git clang-format
+  # simulation and learning
+  libmujoco-dev libmujoco-samples libtorch-dev
+  # libtorch links libblas.so.3; OpenBLAS registers itself as that alternative and is 5-10x
+  # faster than the reference BLAS for the policy's matrix products (docs/environment measured).
+  libopenblas0-openmp
+  # transport, wire format, metrics
+  libzmq3-dev cppzmq-dev libprotobuf-dev protobuf-compiler prometheus-cpp-dev
+  # config, command line, JSON
+  libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
+$sudo apt-get update -q
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
