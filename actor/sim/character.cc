@@ -9,11 +9,10 @@
 namespace ragdoll::sim {
 namespace {
 
-const char* kBodyOrder[] = {"root",           "chest",         "neck",
-                            "right_hip",      "right_knee",    "right_ankle",
-                            "right_shoulder", "right_elbow",   "right_wrist",
-                            "left_hip",       "left_knee",     "left_ankle",
-                            "left_shoulder",  "left_elbow",    "left_wrist"};
+const char* kBodyOrder[] = {"root",          "chest",       "neck",           "right_hip",
+                            "right_knee",    "right_ankle", "right_shoulder", "right_elbow",
+                            "right_wrist",   "left_hip",    "left_knee",      "left_ankle",
+                            "left_shoulder", "left_elbow",  "left_wrist"};
 const char* kEndEffectors[] = {"right_wrist", "left_wrist", "right_ankle", "left_ankle"};
 
 }  // namespace
@@ -65,11 +64,10 @@ std::shared_ptr<const Character> Character::Load(const std::string& path, double
       if (!m->jnt_limited[jnt]) fail(where + ": must have a range");
       // Hinge axes must be signed coordinate axes of the body frame, all different.
       const mjtNum* axis = m->jnt_axis + 3 * jnt;
-      int k = static_cast<int>(std::max_element(axis, axis + 3,
-                                                [](double a, double b) {
-                                                  return std::abs(a) < std::abs(b);
-                                                }) -
-                               axis);
+      int k = static_cast<int>(
+          std::max_element(axis, axis + 3,
+                           [](double a, double b) { return std::abs(a) < std::abs(b); }) -
+          axis);
       if (std::abs(std::abs(axis[k]) - 1) > 1e-9 || used[k]) {
         fail(where + ": axes must be distinct coordinate axes (e.g. \"0 1 0\")");
       }

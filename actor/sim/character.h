@@ -25,8 +25,8 @@ using DataPtr = std::unique_ptr<mjData, DataDeleter>;
 // One joint of the skeleton as it is built in the model.
 struct CharacterJoint {
   std::string name;
-  int body = -1;       // MuJoCo body id
-  HingeAxes axes;      // its one or three hinges
+  int body = -1;         // MuJoCo body id
+  HingeAxes axes;        // its one or three hinges
   int qpos_address = 0;  // first hinge's qpos index; hinges are consecutive
   int dof_address = 0;   // first hinge's dof index
 };

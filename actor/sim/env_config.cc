@@ -10,7 +10,8 @@ namespace {
 
 double Positive(const ConfigSection& s, const std::string& key, double fallback) {
   double v = s.Get<double>(key, fallback);
-  if (!std::isfinite(v) || v <= 0) s.Fail(key, "must be a positive number, got " + std::to_string(v));
+  if (!std::isfinite(v) || v <= 0)
+    s.Fail(key, "must be a positive number, got " + std::to_string(v));
   return v;
 }
 

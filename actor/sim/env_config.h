@@ -19,15 +19,15 @@ enum class ActionMode {
 };
 
 struct EnvConfig {
-  std::string character;  // MJCF file
-  std::string motion;     // reference clip (project format or DeepMimic motion file)
+  std::string character;          // MJCF file
+  std::string motion;             // reference clip (project format or DeepMimic motion file)
   double control_frequency = 30;  // policy decisions per second
   int substeps = 20;              // physics steps per decision (timestep = 1 / (f * substeps))
   int max_episode_steps = 300;    // truncation: episode length in decisions
   ActionMode action_mode = ActionMode::kAbsolute;
   double offset_scale = 0.5;
-  bool random_start = true;   // reference state initialisation at a uniformly random phase
-  double start_phase = 0.0;   // the phase in [0, 1) used when random_start is false
+  bool random_start = true;  // reference state initialisation at a uniformly random phase
+  double start_phase = 0.0;  // the phase in [0, 1) used when random_start is false
   // Bodies that may touch the ground; any other contact ends the episode (a fall).
   std::vector<std::string> allowed_contacts = {"right_ankle", "left_ankle"};
   // The episode also ends when the root is further than this from the reference root, m.
@@ -35,10 +35,9 @@ struct EnvConfig {
   // Relative importance of each joint in the rotation and velocity terms (DeepMimic's humanoid3d
   // values; a joint left out weighs 0).
   std::map<std::string, double> joint_weights = {
-      {"chest", 0.5},          {"neck", 0.3},         {"right_hip", 0.5},
-      {"right_knee", 0.3},     {"right_ankle", 0.2},  {"right_shoulder", 0.3},
-      {"right_elbow", 0.2},    {"left_hip", 0.5},     {"left_knee", 0.3},
-      {"left_ankle", 0.2},     {"left_shoulder", 0.3}, {"left_elbow", 0.2}};
+      {"chest", 0.5},       {"neck", 0.3},           {"right_hip", 0.5},     {"right_knee", 0.3},
+      {"right_ankle", 0.2}, {"right_shoulder", 0.3}, {"right_elbow", 0.2},   {"left_hip", 0.5},
+      {"left_knee", 0.3},   {"left_ankle", 0.2},     {"left_shoulder", 0.3}, {"left_elbow", 0.2}};
   RewardConfig reward;
 
   double control_dt() const { return 1.0 / control_frequency; }

@@ -18,12 +18,18 @@ constexpr double kVelocityStep = 1e-3;
 
 const char* EpisodeEndName(EpisodeEnd end) {
   switch (end) {
-    case EpisodeEnd::kRunning: return "running";
-    case EpisodeEnd::kFell: return "fell";
-    case EpisodeEnd::kStrayed: return "strayed";
-    case EpisodeEnd::kUnstable: return "unstable";
-    case EpisodeEnd::kTimeLimit: return "time_limit";
-    case EpisodeEnd::kClipEnd: return "clip_end";
+    case EpisodeEnd::kRunning:
+      return "running";
+    case EpisodeEnd::kFell:
+      return "fell";
+    case EpisodeEnd::kStrayed:
+      return "strayed";
+    case EpisodeEnd::kUnstable:
+      return "unstable";
+    case EpisodeEnd::kTimeLimit:
+      return "time_limit";
+    case EpisodeEnd::kClipEnd:
+      return "clip_end";
   }
   return "?";
 }
@@ -71,12 +77,11 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
   spec_.max_episode_steps = config_.max_episode_steps;
   spec_.max_reward_per_step = config_.reward.MaxReward();
 
-  scratch_qpos_.resize(m->nq);
-  scratch_qvel_.resize(m->nv);
+  qpos_before_.resize(m->nq);
+  qpos_after_.resize(m->nq);
 }
 
 void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const {
-  const mjModel* m = character_->model();
   character_->PoseToQpos(clip_->Sample(time), qpos);
   PoseVelocity v = clip_->SampleVelocity(time);
   for (int k = 0; k < 3; ++k) {
@@ -85,12 +90,11 @@ void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const
   }
   // Hinge velocities: a central difference of the decomposed (and clamped) angles, so that the
   // reference velocity is exactly the rate of change of the reference joint coordinates.
-  std::vector<double> before(m->nq), after(m->nq);
-  character_->PoseToQpos(clip_->Sample(time - kVelocityStep), before.data());
-  character_->PoseToQpos(clip_->Sample(time + kVelocityStep), after.data());
+  character_->PoseToQpos(clip_->Sample(time - kVelocityStep), qpos_before_.data());
+  character_->PoseToQpos(clip_->Sample(time + kVelocityStep), qpos_after_.data());
   for (const auto& h : character_->hinges()) {
     qvel[h.dof_address] =
-        (after[h.qpos_address] - before[h.qpos_address]) / (2 * kVelocityStep);
+        (qpos_after_[h.qpos_address] - qpos_before_[h.qpos_address]) / (2 * kVelocityStep);
   }
 }
 
@@ -114,8 +118,8 @@ void ImitationEnv::ResetAtPhase(double phase, float* observation) {
   term_sums_ = RewardTerms();
   episode_.max_length = config_.max_episode_steps;
   if (!clip_->loop()) {
-    int remaining = static_cast<int>(std::floor((clip_->duration() - time_) / config_.control_dt() +
-                                                1e-9));
+    int remaining =
+        static_cast<int>(std::floor((clip_->duration() - time_) / config_.control_dt() + 1e-9));
     episode_.max_length = std::clamp(remaining, 1, config_.max_episode_steps);
   }
   BuildObservation(*character_, *d, clip_->Phase(time_), observation);
@@ -130,7 +134,8 @@ void ImitationEnv::ReferenceAction(float* action) const {
       action[i] = 0;
     } else {
       const ActuatedHinge& h = hinges[i];
-      action[i] = static_cast<float>(2 * (qpos[h.qpos_address] - h.lower) / (h.upper - h.lower) - 1);
+      action[i] =
+          static_cast<float>(2 * (qpos[h.qpos_address] - h.lower) / (h.upper - h.lower) - 1);
     }
   }
 }
@@ -169,6 +174,20 @@ void ImitationEnv::Features(const mjData& d, PoseFeatures* f) const {
   f->root_rotation = {d.qpos[3], d.qpos[4], d.qpos[5], d.qpos[6]};
   f->root_linear_velocity = {d.qvel[0], d.qvel[1], d.qvel[2]};
   f->root_angular_velocity = {d.qvel[3], d.qvel[4], d.qvel[5]};
+}
+
+RewardTerms ImitationEnv::Score() {
+  mj_kinematics(character_->model(), ref_data_.get());
+  Features(*data_, &sim_features_);
+  Features(*ref_data_, &ref_features_);
+  RewardErrors errors =
+      ImitationErrors(config_.reward, joint_weights_, hinge_joint_, sim_features_, ref_features_);
+  return ImitationReward(config_.reward, errors);
+}
+
+RewardTerms ImitationEnv::RewardAt(double time) {
+  ReferenceState(time, ref_data_->qpos, ref_data_->qvel);
+  return Score();
 }
 
 bool ImitationEnv::Diverged() const {
@@ -254,12 +273,7 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     std::copy(ref->qvel, ref->qvel + m->nv, d->qvel);
     mj_forward(m, d);
   } else {
-    mj_kinematics(m, ref);
-    Features(*d, &sim_features_);
-    Features(*ref, &ref_features_);
-    RewardErrors errors =
-        ImitationErrors(config_.reward, joint_weights_, hinge_joint_, sim_features_, ref_features_);
-    result.terms = ImitationReward(config_.reward, errors);
+    result.terms = Score();
     result.reward = result.terms.total;
     EpisodeEnd end = CheckTermination();
     if (end != EpisodeEnd::kRunning) {
@@ -281,9 +295,9 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   term_sums_.root += result.terms.root;
   term_sums_.total += result.terms.total;
   double n = episode_.length;
-  episode_.mean_terms = {term_sums_.rotation / n, term_sums_.velocity / n,
+  episode_.mean_terms = {term_sums_.rotation / n,     term_sums_.velocity / n,
                          term_sums_.end_effector / n, term_sums_.com / n,
-                         term_sums_.root / n, term_sums_.total / n};
+                         term_sums_.root / n,         term_sums_.total / n};
   episode_.normalized_return =
       episode_.episode_return / (spec_.max_reward_per_step * episode_.max_length);
 

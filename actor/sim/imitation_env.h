@@ -28,11 +28,11 @@ struct EnvSpec {
 // Why an episode ended.
 enum class EpisodeEnd {
   kRunning,
-  kFell,      // a body outside allowed_contacts touched the ground (terminated)
-  kStrayed,   // the root left the reference by more than max_root_distance (terminated)
-  kUnstable,  // the simulation diverged (terminated; counted in unstable_resets())
-  kTimeLimit, // max_episode_steps reached (truncated)
-  kClipEnd,   // a clip that does not loop ran out (truncated)
+  kFell,       // a body outside allowed_contacts touched the ground (terminated)
+  kStrayed,    // the root left the reference by more than max_root_distance (terminated)
+  kUnstable,   // the simulation diverged (terminated; counted in unstable_resets())
+  kTimeLimit,  // max_episode_steps reached (truncated)
+  kClipEnd,    // a clip that does not loop ran out (truncated)
 };
 
 struct StepResult {
@@ -93,9 +93,14 @@ class ImitationEnv {
 
   // Joint coordinates and velocities of the reference at clip time `time` (nq and nv values).
   void ReferenceState(double time, double* qpos, double* qvel) const;
+  // The reward of the current simulated state against the reference at clip time `time` (Step
+  // scores against the reference at the end of the step).
+  RewardTerms RewardAt(double time);
 
  private:
   void Features(const mjData& d, PoseFeatures* out) const;
+  // Scores data_ against the reference state already in ref_data_.
+  RewardTerms Score();
   bool Diverged() const;
   EpisodeEnd CheckTermination() const;
 
@@ -105,11 +110,12 @@ class ImitationEnv {
   EnvSpec spec_;
   std::mt19937_64 rng_;
   DataPtr data_;
-  DataPtr ref_data_;  // the reference pose, kinematics only
-  std::vector<double> joint_weights_;  // per skeleton joint
-  std::vector<int> hinge_joint_;       // skeleton joint of each actuated hinge
+  DataPtr ref_data_;                    // the reference pose, kinematics only
+  std::vector<double> joint_weights_;   // per skeleton joint
+  std::vector<int> hinge_joint_;        // skeleton joint of each actuated hinge
   std::vector<char> may_touch_ground_;  // per body
-  std::vector<double> scratch_qpos_, scratch_qvel_;
+  // Reference joint coordinates just before and after a time, for velocities by differences.
+  mutable std::vector<double> qpos_before_, qpos_after_;
   PoseFeatures sim_features_, ref_features_;
   double time_ = 0;
   EpisodeStats episode_;

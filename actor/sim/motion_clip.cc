@@ -53,8 +53,7 @@ MotionClip::MotionClip(std::string name, bool loop, std::vector<double> frame_du
     }
     for (double c : pose.root_position) {
       if (!std::isfinite(c)) {
-        throw std::invalid_argument("frame " + std::to_string(f) +
-                                    ": root position is not finite");
+        throw std::invalid_argument("frame " + std::to_string(f) + ": root position is not finite");
       }
     }
     if (pose.joint_rotations.size() != joints.size()) {

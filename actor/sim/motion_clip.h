@@ -19,8 +19,8 @@ struct Pose {
 
 // The time derivative of a clip's pose.
 struct PoseVelocity {
-  Vec3 root_linear = {0, 0, 0};   // world frame, m/s
-  Vec3 root_angular = {0, 0, 0};  // root's own frame, rad/s (MuJoCo's free-joint convention)
+  Vec3 root_linear = {0, 0, 0};     // world frame, m/s
+  Vec3 root_angular = {0, 0, 0};    // root's own frame, rad/s (MuJoCo's free-joint convention)
   std::vector<Vec3> joint_angular;  // each joint's own (child) frame, rad/s
 };
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <set>
@@ -102,11 +103,12 @@ MotionClip ParseDeepMimic(const json& doc, const std::string& origin) {
     }
     frames.push_back(std::move(pose));
   }
-  return Build(origin, origin, loop, std::move(durations), std::move(frames));
+  return Build(origin, std::filesystem::path(origin).stem().string(), loop, std::move(durations),
+               std::move(frames));
 }
 
 MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
-  static const std::set<std::string> kKeys = {"format", "version", "name", "description",
+  static const std::set<std::string> kKeys = {"format", "version",        "name",   "description",
                                               "loop",   "frame_duration", "joints", "frames"};
   for (const auto& item : doc.items()) {
     if (!kKeys.count(item.key())) Fail(origin, "unknown field '" + item.key() + "'");
@@ -117,8 +119,8 @@ MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
   if (!doc.contains("version") || doc["version"] != kFormatVersion) {
     Fail(origin, "version: this build reads version " + std::to_string(kFormatVersion));
   }
-  std::string name = doc.contains("name") && doc["name"].is_string() ? doc["name"].get<std::string>()
-                                                                    : origin;
+  std::string name =
+      doc.contains("name") && doc["name"].is_string() ? doc["name"].get<std::string>() : origin;
   if (!doc.contains("loop") || !doc["loop"].is_boolean()) Fail(origin, "loop: expected true/false");
   bool loop = doc["loop"].get<bool>();
   if (!doc.contains("frame_duration")) Fail(origin, "frame_duration: missing");
@@ -138,8 +140,8 @@ MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
     if (slot < 0) {
       std::string known;
       for (const auto& s : skeleton) known += " " + s.name;
-      Fail(origin, "joints: unknown joint '" + j.get<std::string>() + "'; the skeleton has:" +
-                       known);
+      Fail(origin,
+           "joints: unknown joint '" + j.get<std::string>() + "'; the skeleton has:" + known);
     }
     for (int s : slots) {
       if (s == slot) Fail(origin, "joints: '" + j.get<std::string>() + "' is listed twice");
@@ -174,8 +176,8 @@ MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
                        (rotations.is_array() ? std::to_string(rotations.size()) : "none"));
     }
     for (size_t j = 0; j < slots.size(); ++j) {
-      pose.joint_rotations[slots[j]] = Numbers<4>(
-          rotations[j], origin, where + ": rotations: " + skeleton[slots[j]].name);
+      pose.joint_rotations[slots[j]] =
+          Numbers<4>(rotations[j], origin, where + ": rotations: " + skeleton[slots[j]].name);
     }
     frames.push_back(std::move(pose));
   }
@@ -239,7 +241,8 @@ std::string FormatClip(const MotionClip& clip, const std::string& description) {
       << ",\n  \"loop\": " << (clip.loop() ? "true" : "false")
       << ",\n  \"frame_duration\": " << std::setprecision(17) << frame_duration
       << ",\n  \"joints\": [";
-  for (size_t j = 0; j < joints.size(); ++j) out << (j ? ", " : "") << "\"" << joints[j].name << "\"";
+  for (size_t j = 0; j < joints.size(); ++j)
+    out << (j ? ", " : "") << "\"" << joints[j].name << "\"";
   out << "],\n  \"frames\": [\n";
   for (int f = 0; f < clip.num_frames(); ++f) {
     const Pose& pose = clip.frame(f);

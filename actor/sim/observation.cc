@@ -43,7 +43,8 @@ std::vector<std::string> ObservationNames(const Character& character) {
     for (const char* p = parts; *p; ++p) names.push_back(prefix + "." + *p);
   };
   auto add_rotation = [&names](const std::string& prefix) {
-    for (const char* c : {"xx", "yx", "zx", "xy", "yy", "zy"}) names.push_back(prefix + ".rot." + c);
+    for (const char* c : {"xx", "yx", "zx", "xy", "yy", "zy"})
+      names.push_back(prefix + ".rot." + c);
   };
   names.push_back("root.height");
   add_rotation("root");

@@ -1,0 +1,33 @@
+// Writes the project's procedurally authored clips (stand, arms, squat, walk) as clip files.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <iostream>
+
+#include "actor/sim/character.h"
+#include "actor/sim/motion_io.h"
+#include "actor/sim/procedural_clips.h"
+#include "common/config_section.h"
+
+int main(int argc, char** argv) {
+  CLI::App app("Writes the project's authored motion clips (stand, arms, squat, walk).");
+  std::string character_path = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
+  std::string out_dir = std::string(RAGDOLL_ASSETS_DIR) + "/motions";
+  app.add_option("--character", character_path, "character MJCF")->capture_default_str();
+  app.add_option("--out", out_dir, "output folder")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    auto character = ragdoll::sim::Character::Load(character_path);
+    std::filesystem::create_directories(out_dir);
+    for (const auto& authored : ragdoll::sim::AuthorClips(*character)) {
+      std::string path = out_dir + "/" + authored.clip.name() + ".json";
+      ragdoll::sim::SaveClip(authored.clip, authored.description, path);
+      std::cout << path << ": " << authored.clip.num_frames() << " frames, "
+                << authored.clip.duration() << " s\n";
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "ragdoll-author-clips: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

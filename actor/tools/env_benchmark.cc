@@ -1,0 +1,231 @@
+// Measures the imitation environment against the raw physics it is built on, and the
+// no-learning baseline of each clip (PD targets set to the reference pose).
+//
+//   ragdoll-bench-env [--steps N] [--repeats R] [CONFIG...]
+//
+// Physics: the character's mj_step rate on one core, replaying exactly the controls and resets
+// of an environment run, so both do the same physics work. Environment: control steps/s of K
+// environments stepped in lockstep in one process (K = 1, 8, 32), and their ratio to the
+// raw-physics bound (raw steps/s / substeps). Figures are medians over R repeats.
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <vector>
+
+#include "actor/sim/character.h"
+#include "actor/sim/env_config.h"
+#include "actor/sim/imitation_env.h"
+#include "actor/sim/motion_io.h"
+#include "common/config_section.h"
+
+namespace {
+
+using namespace ragdoll;
+using namespace ragdoll::sim;
+using Clock = std::chrono::steady_clock;
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+struct Experiment {
+  std::string config_path;
+  EnvConfig config;
+  std::shared_ptr<const Character> character;
+  std::shared_ptr<const MotionClip> clip;
+};
+
+Experiment LoadExperiment(const std::string& path) {
+  Experiment e;
+  e.config_path = path;
+  ConfigSection root = ConfigSection::FromFile(path);
+  e.config = ReadEnvConfig(root.Section("environment"),
+                           std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml");
+  e.character = Character::Load(e.config.character, e.config.physics_dt());
+  e.clip = std::make_shared<const MotionClip>(LoadMotion(e.config.motion));
+  return e;
+}
+
+// One recorded environment run: the controls of every step and the states it reset to.
+struct Recording {
+  std::vector<float> actions;     // steps x action_size
+  std::vector<double> controls;   // steps x nu
+  std::vector<int> reset_before;  // 1 where the step follows a reset
+  std::vector<double> reset_qpos, reset_qvel;
+};
+
+Recording Record(const Experiment& e, int steps, uint64_t seed) {
+  ImitationEnv env(e.character, e.clip, e.config, seed);
+  const mjModel* m = e.character->model();
+  const int na = env.spec().action_size;
+  std::vector<float> obs(env.spec().observation_size), action(na);
+  Recording r;
+  env.Reset(obs.data());
+  bool reset = true;
+  for (int i = 0; i < steps; ++i) {
+    if (reset) {
+      r.reset_qpos.insert(r.reset_qpos.end(), env.data().qpos, env.data().qpos + m->nq);
+      r.reset_qvel.insert(r.reset_qvel.end(), env.data().qvel, env.data().qvel + m->nv);
+    }
+    r.reset_before.push_back(reset ? 1 : 0);
+    env.ReferenceAction(action.data());
+    r.actions.insert(r.actions.end(), action.begin(), action.end());
+    StepResult s = env.Step(action.data(), obs.data());
+    r.controls.insert(r.controls.end(), env.data().ctrl, env.data().ctrl + m->nu);
+    reset = s.terminated || s.truncated;
+    if (reset) env.Reset(obs.data());
+  }
+  return r;
+}
+
+// Physics steps per second of plain mj_step replaying the recording.
+double RawPhysicsRate(const Experiment& e, const Recording& r) {
+  const mjModel* m = e.character->model();
+  DataPtr d = e.character->MakeData();
+  const int steps = static_cast<int>(r.reset_before.size());
+  int resets = 0;
+  auto start = Clock::now();
+  for (int i = 0; i < steps; ++i) {
+    if (r.reset_before[i]) {
+      mj_resetData(m, d.get());
+      std::copy_n(r.reset_qpos.data() + resets * m->nq, m->nq, d->qpos);
+      std::copy_n(r.reset_qvel.data() + resets * m->nv, m->nv, d->qvel);
+      mj_forward(m, d.get());
+      ++resets;
+    }
+    std::copy_n(r.controls.data() + i * m->nu, m->nu, d->ctrl);
+    for (int s = 0; s < e.config.substeps; ++s) mj_step(m, d.get());
+  }
+  double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return steps * e.config.substeps / seconds;
+}
+
+// Control steps per second of K environments in lockstep, each replaying the recording.
+double EnvRate(const Experiment& e, const Recording& r, int k, uint64_t seed) {
+  std::vector<std::unique_ptr<ImitationEnv>> envs;
+  for (int i = 0; i < k; ++i) {
+    envs.push_back(std::make_unique<ImitationEnv>(e.character, e.clip, e.config, seed));
+  }
+  const int na = envs[0]->spec().action_size;
+  const int no = envs[0]->spec().observation_size;
+  std::vector<float> obs(static_cast<size_t>(k) * no);
+  const int steps = static_cast<int>(r.reset_before.size()) / k;
+  auto start = Clock::now();
+  for (int i = 0; i < k; ++i) envs[i]->Reset(obs.data() + i * no);
+  for (int t = 0; t < steps; ++t) {
+    for (int i = 0; i < k; ++i) {
+      StepResult s =
+          envs[i]->Step(r.actions.data() + static_cast<size_t>(t) * na, obs.data() + i * no);
+      if (s.terminated || s.truncated) envs[i]->Reset(obs.data() + i * no);
+    }
+  }
+  double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return static_cast<double>(steps) * k / seconds;
+}
+
+struct Baseline {
+  double normalized_return = 0, length = 0, fall_rate = 0;
+  RewardTerms terms;
+};
+
+// PD tracking of the reference pose, no learning: `episodes` episodes from random phases.
+Baseline RunBaseline(const Experiment& e, int episodes, uint64_t seed) {
+  ImitationEnv env(e.character, e.clip, e.config, seed);
+  std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size);
+  Baseline b;
+  for (int ep = 0; ep < episodes; ++ep) {
+    env.Reset(obs.data());
+    for (;;) {
+      env.ReferenceAction(action.data());
+      StepResult s = env.Step(action.data(), obs.data());
+      if (s.terminated || s.truncated) break;
+    }
+    const EpisodeStats& st = env.episode();
+    b.normalized_return += st.normalized_return / episodes;
+    b.length += static_cast<double>(st.length) / episodes;
+    b.fall_rate += (st.fell() ? 1.0 : 0.0) / episodes;
+    b.terms.rotation += st.mean_terms.rotation / episodes;
+    b.terms.velocity += st.mean_terms.velocity / episodes;
+    b.terms.end_effector += st.mean_terms.end_effector / episodes;
+    b.terms.com += st.mean_terms.com / episodes;
+    b.terms.root += st.mean_terms.root / episodes;
+  }
+  return b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Environment throughput against raw MuJoCo, and no-learning baselines.");
+  std::vector<std::string> configs;
+  int steps = 2000, repeats = 5, episodes = 50;
+  bool skip_speed = false;
+  app.add_option("configs", configs, "experiment configs (their environment sections)")->required();
+  app.add_option("--steps", steps, "control steps per speed measurement")->capture_default_str();
+  app.add_option("--repeats", repeats, "repeats per speed figure (median)")->capture_default_str();
+  app.add_option("--episodes", episodes, "episodes per baseline")->capture_default_str();
+  app.add_flag("--baseline-only", skip_speed, "skip the speed measurements");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    bool first = true;
+    for (const auto& path : configs) {
+      Experiment e = LoadExperiment(path);
+      if (!skip_speed && first) {
+        first = false;
+        std::printf("speed (%s, %g Hz control, %d substeps, median of %d):\n", path.c_str(),
+                    e.config.control_frequency, e.config.substeps, repeats);
+        const int ks[] = {1, 8, 32};
+        std::vector<double> raw;
+        std::vector<std::vector<double>> env(3);
+        for (int rep = 0; rep < repeats; ++rep) {
+          Recording r1 = Record(e, steps, 1);
+          raw.push_back(RawPhysicsRate(e, r1));
+          for (int i = 0; i < 3; ++i) {
+            // Each of the K environments replays the same recording (same seed, same actions),
+            // so all do the same physics as the raw loop.
+            Recording rk = r1;
+            std::vector<float> actions;
+            for (int t = 0; t < steps / ks[i]; ++t) {
+              actions.insert(
+                  actions.end(),
+                  r1.actions.begin() + static_cast<long>(t) * e.character->model()->nu,
+                  r1.actions.begin() + static_cast<long>(t + 1) * e.character->model()->nu);
+            }
+            rk.actions = actions;
+            rk.reset_before.resize(static_cast<size_t>(steps / ks[i]) * ks[i]);
+            env[i].push_back(EnvRate(e, rk, ks[i], 1));
+          }
+        }
+        double raw_rate = Median(raw);
+        double bound = raw_rate / e.config.substeps;
+        std::printf(
+            "  raw mj_step                  %9.0f physics steps/s  (bound %.0f control steps/s)\n",
+            raw_rate, bound);
+        for (int i = 0; i < 3; ++i) {
+          double rate = Median(env[i]);
+          std::printf(
+              "  environment K=%-2d             %9.0f control steps/s  %.3f of bound (overhead "
+              "%+.1f %%)\n",
+              ks[i], rate, rate / bound, 100 * (bound / rate - 1));
+        }
+      }
+      Baseline b = RunBaseline(e, episodes, 7);
+      std::printf(
+          "baseline %-28s normalised return %.3f  length %5.1f steps (%.2f s)  fall rate %.2f  "
+          "terms rot %.3f vel %.3f ee %.3f com %.3f root %.3f\n",
+          e.clip->name().c_str(), b.normalized_return, b.length, b.length * e.config.control_dt(),
+          b.fall_rate, b.terms.rotation, b.terms.velocity, b.terms.end_effector, b.terms.com,
+          b.terms.root);
+      std::fflush(stdout);
+    }
+  } catch (const std::exception& ex) {
+    std::cerr << "ragdoll-bench-env: " << ex.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
