@@ -51,7 +51,8 @@ YAML::Node ConfigSection::Lookup(const std::string& key) const {
   // operator[] on a const node does not insert.
   const YAML::Node& const_node = node_;
   YAML::Node value = const_node[key];
-  if (value && value.IsNull()) return YAML::Node();
+  // A key without a value ("motion:") counts as absent.
+  if (value && value.IsNull()) return YAML::Node(YAML::NodeType::Undefined);
   return value;
 }
 

@@ -82,7 +82,8 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
 }
 
 void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const {
-  character_->PoseToQpos(clip_->Sample(time), qpos);
+  clip_->SampleInto(time, &pose_scratch_);
+  character_->PoseToQpos(pose_scratch_, qpos);
   PoseVelocity v = clip_->SampleVelocity(time);
   for (int k = 0; k < 3; ++k) {
     qvel[k] = v.root_linear[k];
@@ -90,8 +91,10 @@ void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const
   }
   // Hinge velocities: a central difference of the decomposed (and clamped) angles, so that the
   // reference velocity is exactly the rate of change of the reference joint coordinates.
-  character_->PoseToQpos(clip_->Sample(time - kVelocityStep), qpos_before_.data());
-  character_->PoseToQpos(clip_->Sample(time + kVelocityStep), qpos_after_.data());
+  clip_->SampleInto(time - kVelocityStep, &pose_scratch_);
+  character_->PoseToQpos(pose_scratch_, qpos_before_.data());
+  clip_->SampleInto(time + kVelocityStep, &pose_scratch_);
+  character_->PoseToQpos(pose_scratch_, qpos_after_.data());
   for (const auto& h : character_->hinges()) {
     qvel[h.dof_address] =
         (qpos_after_[h.qpos_address] - qpos_before_[h.qpos_address]) / (2 * kVelocityStep);

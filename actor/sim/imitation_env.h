@@ -116,6 +116,7 @@ class ImitationEnv {
   std::vector<char> may_touch_ground_;  // per body
   // Reference joint coordinates just before and after a time, for velocities by differences.
   mutable std::vector<double> qpos_before_, qpos_after_;
+  mutable Pose pose_scratch_;
   PoseFeatures sim_features_, ref_features_;
   double time_ = 0;
   EpisodeStats episode_;

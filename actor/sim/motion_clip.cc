@@ -105,22 +105,26 @@ double MotionClip::Phase(double time) const {
 }
 
 Pose MotionClip::Sample(double time) const {
+  Pose out;
+  SampleInto(time, &out);
+  return out;
+}
+
+void MotionClip::SampleInto(double time, Pose* out) const {
   int i;
   double alpha, cycles;
   Locate(time, &i, &alpha, &cycles);
   const Pose& a = frames_[i];
   const Pose& b = frames_[i + 1];
-  Pose out;
   for (int k = 0; k < 3; ++k) {
-    out.root_position[k] = (1 - alpha) * a.root_position[k] + alpha * b.root_position[k] +
-                           cycles * cycle_displacement_[k];
+    out->root_position[k] = (1 - alpha) * a.root_position[k] + alpha * b.root_position[k] +
+                            cycles * cycle_displacement_[k];
   }
-  out.root_rotation = Slerp(a.root_rotation, b.root_rotation, alpha);
-  out.joint_rotations.resize(a.joint_rotations.size());
+  out->root_rotation = Slerp(a.root_rotation, b.root_rotation, alpha);
+  out->joint_rotations.resize(a.joint_rotations.size());
   for (size_t j = 0; j < a.joint_rotations.size(); ++j) {
-    out.joint_rotations[j] = Slerp(a.joint_rotations[j], b.joint_rotations[j], alpha);
+    out->joint_rotations[j] = Slerp(a.joint_rotations[j], b.joint_rotations[j], alpha);
   }
-  return out;
 }
 
 PoseVelocity MotionClip::SampleVelocity(double time) const {

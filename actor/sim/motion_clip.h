@@ -51,6 +51,8 @@ class MotionClip {
   // clip repeats forever, its root advanced by cycle_displacement() each cycle; other clips hold
   // their first or last pose outside [0, duration()].
   Pose Sample(double time) const;
+  // The same, reusing `out`'s storage (no allocation once it has the right size).
+  void SampleInto(double time, Pose* out) const;
   // The velocity at `time`: the derivative of Sample() (constant between two key frames).
   PoseVelocity SampleVelocity(double time) const;
 

@@ -113,7 +113,7 @@ MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
   for (const auto& item : doc.items()) {
     if (!kKeys.count(item.key())) Fail(origin, "unknown field '" + item.key() + "'");
   }
-  if (doc.value("format", "") != kFormatName) {
+  if (!doc.contains("format") || !doc["format"].is_string() || doc["format"] != kFormatName) {
     Fail(origin, std::string("format: expected \"") + kFormatName + "\"");
   }
   if (!doc.contains("version") || doc["version"] != kFormatVersion) {

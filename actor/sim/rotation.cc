@@ -39,7 +39,7 @@ Quat Slerp(const Quat& a, Quat b, double alpha) {
     dot = -dot;
   }
   double wa, wb;
-  if (dot > 0.9995) {  // nearly parallel: linear interpolation is exact to ~1e-7 and stable
+  if (dot > 0.9995) {  // nearly parallel: linear interpolation is within ~1e-6 rad and stable
     wa = 1 - alpha;
     wb = alpha;
   } else {

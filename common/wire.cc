@@ -1,0 +1,256 @@
+#include "common/wire.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace ragdoll::wire {
+namespace {
+
+Verdict Reject(Rejection r, std::string detail) { return Verdict{r, std::move(detail)}; }
+
+size_t DTypeSize(v1::Tensor::DType d) {
+  switch (d) {
+    case v1::Tensor::DTYPE_FLOAT32:
+      return 4;
+    case v1::Tensor::DTYPE_UINT8:
+      return 1;
+    case v1::Tensor::DTYPE_INT64:
+      return 8;
+    default:
+      return 0;
+  }
+}
+
+std::string ShapeString(const v1::Tensor& t) {
+  std::string s = "[";
+  for (int i = 0; i < t.shape_size(); ++i) s += (i ? ", " : "") + std::to_string(t.shape(i));
+  return s + "]";
+}
+
+}  // namespace
+
+const char* RejectionName(Rejection r) {
+  switch (r) {
+    case Rejection::kNone:
+      return "none";
+    case Rejection::kMalformed:
+      return "malformed";
+    case Rejection::kVersion:
+      return "version";
+    case Rejection::kKind:
+      return "kind";
+    case Rejection::kSizeMismatch:
+      return "size_mismatch";
+    case Rejection::kOversized:
+      return "oversized";
+    case Rejection::kShape:
+      return "shape";
+    case Rejection::kNonFinite:
+      return "non_finite";
+    case Rejection::kRunId:
+      return "run_id";
+  }
+  return "unknown";
+}
+
+Frames Pack(v1::Kind kind, const std::string& run_id, const std::string& sender,
+            const google::protobuf::MessageLite& payload) {
+  Frames f;
+  payload.SerializeToString(&f.payload);
+  v1::Header h;
+  h.set_protocol_version(kProtocolVersion);
+  h.set_kind(kind);
+  h.set_run_id(run_id);
+  h.set_sender(sender);
+  h.set_payload_bytes(f.payload.size());
+  h.SerializeToString(&f.header);
+  return f;
+}
+
+Frames PackEmpty(v1::Kind kind, const std::string& run_id, const std::string& sender) {
+  Frames f;
+  v1::Header h;
+  h.set_protocol_version(kProtocolVersion);
+  h.set_kind(kind);
+  h.set_run_id(run_id);
+  h.set_sender(sender);
+  h.set_payload_bytes(0);
+  h.SerializeToString(&f.header);
+  return f;
+}
+
+Verdict ReadHeader(const void* data, size_t size, size_t payload_size, size_t max_payload_bytes,
+                   v1::Header* header) {
+  if (!header->ParseFromArray(data, static_cast<int>(size))) {
+    return Reject(Rejection::kMalformed, "header frame does not parse");
+  }
+  if (header->protocol_version() != kProtocolVersion) {
+    return Reject(Rejection::kVersion,
+                  "protocol version " + std::to_string(header->protocol_version()) +
+                      ", this build speaks " + std::to_string(kProtocolVersion));
+  }
+  if (header->kind() == v1::KIND_UNSPECIFIED || !v1::Kind_IsValid(header->kind())) {
+    return Reject(Rejection::kKind, "unknown message kind " + std::to_string(header->kind()));
+  }
+  if (payload_size > max_payload_bytes || header->payload_bytes() > max_payload_bytes) {
+    return Reject(Rejection::kOversized, std::to_string(payload_size) + " bytes, limit " +
+                                             std::to_string(max_payload_bytes));
+  }
+  if (header->payload_bytes() != payload_size) {
+    return Reject(Rejection::kSizeMismatch,
+                  "header says " + std::to_string(header->payload_bytes()) +
+                      " payload bytes, frame has " + std::to_string(payload_size));
+  }
+  return {};
+}
+
+v1::Tensor FloatTensor(const float* data, const std::vector<int64_t>& shape) {
+  v1::Tensor t;
+  t.set_dtype(v1::Tensor::DTYPE_FLOAT32);
+  int64_t n = 1;
+  for (int64_t d : shape) {
+    t.add_shape(d);
+    n *= d;
+  }
+  t.set_data(reinterpret_cast<const char*>(data), static_cast<size_t>(n) * sizeof(float));
+  return t;
+}
+
+v1::Tensor ByteTensor(const uint8_t* data, const std::vector<int64_t>& shape) {
+  v1::Tensor t;
+  t.set_dtype(v1::Tensor::DTYPE_UINT8);
+  int64_t n = 1;
+  for (int64_t d : shape) {
+    t.add_shape(d);
+    n *= d;
+  }
+  t.set_data(reinterpret_cast<const char*>(data), static_cast<size_t>(n));
+  return t;
+}
+
+int64_t Elements(const v1::Tensor& t) {
+  int64_t n = 1;
+  for (int64_t d : t.shape()) n *= d;
+  return n;
+}
+
+Verdict CheckTensor(const v1::Tensor& t, v1::Tensor::DType dtype, const std::vector<int64_t>& shape,
+                    const char* name) {
+  if (t.dtype() != dtype) {
+    return Reject(Rejection::kShape, std::string(name) + ": dtype " +
+                                         v1::Tensor::DType_Name(t.dtype()) + ", expected " +
+                                         v1::Tensor::DType_Name(dtype));
+  }
+  if (t.shape_size() != static_cast<int>(shape.size())) {
+    return Reject(Rejection::kShape, std::string(name) + ": shape " + ShapeString(t) + " has " +
+                                         std::to_string(t.shape_size()) + " dimensions, expected " +
+                                         std::to_string(shape.size()));
+  }
+  int64_t n = 1;
+  for (int i = 0; i < t.shape_size(); ++i) {
+    int64_t d = t.shape(i);
+    if (d < 0 || d > (int64_t{1} << 31) || (shape[i] >= 0 && d != shape[i])) {
+      return Reject(Rejection::kShape, std::string(name) + ": shape " + ShapeString(t) +
+                                           " does not match the expected dimension " +
+                                           std::to_string(i) + " of " + std::to_string(shape[i]));
+    }
+    n *= d;
+    if (n > (int64_t{1} << 32)) return Reject(Rejection::kShape, std::string(name) + ": too big");
+  }
+  if (t.data().size() != static_cast<size_t>(n) * DTypeSize(dtype)) {
+    return Reject(Rejection::kShape, std::string(name) + ": " + std::to_string(t.data().size()) +
+                                         " bytes for shape " + ShapeString(t));
+  }
+  if (dtype == v1::Tensor::DTYPE_FLOAT32) {
+    const char* bytes = t.data().data();
+    for (int64_t i = 0; i < n; ++i) {
+      float x;
+      std::memcpy(&x, bytes + 4 * i, 4);
+      if (!std::isfinite(x)) {
+        return Reject(Rejection::kNonFinite,
+                      std::string(name) + ": element " + std::to_string(i) + " is not finite");
+      }
+    }
+  }
+  return {};
+}
+
+std::vector<float> FloatValues(const v1::Tensor& t) {
+  std::vector<float> out(t.data().size() / sizeof(float));
+  std::memcpy(out.data(), t.data().data(), out.size() * sizeof(float));
+  return out;
+}
+
+const float* FloatData(const v1::Tensor& t) {
+  return reinterpret_cast<const float*>(t.data().data());
+}
+
+const uint8_t* ByteData(const v1::Tensor& t) {
+  return reinterpret_cast<const uint8_t*>(t.data().data());
+}
+
+Verdict CheckSegment(const v1::TrajectorySegment& s, int observation_size, int action_size) {
+  const auto F = v1::Tensor::DTYPE_FLOAT32;
+  const auto U = v1::Tensor::DTYPE_UINT8;
+  if (s.actions().shape_size() != 2) {
+    return Reject(Rejection::kShape, "actions: expected [T, " + std::to_string(action_size) + "]");
+  }
+  const int64_t T = s.actions().shape(0);
+  if (T < 1) return Reject(Rejection::kShape, "actions: a segment needs at least one step");
+  Verdict v;
+  if (!(v = CheckTensor(s.observations(), F, {T + 1, observation_size}, "observations")).ok())
+    return v;
+  if (!(v = CheckTensor(s.actions(), F, {T, action_size}, "actions")).ok()) return v;
+  if (!(v = CheckTensor(s.log_probs(), F, {T}, "log_probs")).ok()) return v;
+  if (!(v = CheckTensor(s.rewards(), F, {T}, "rewards")).ok()) return v;
+  if (!(v = CheckTensor(s.terminated(), U, {T}, "terminated")).ok()) return v;
+  if (!(v = CheckTensor(s.truncated(), U, {T}, "truncated")).ok()) return v;
+  const uint8_t* terminated = ByteData(s.terminated());
+  const uint8_t* truncated = ByteData(s.truncated());
+  int64_t inner_truncations = 0;
+  for (int64_t t = 0; t < T; ++t) {
+    if (terminated[t] > 1 || truncated[t] > 1 || (terminated[t] && truncated[t])) {
+      return Reject(Rejection::kShape,
+                    "step " + std::to_string(t) + ": terminated/truncated must be 0/1, not both");
+    }
+    if (truncated[t] && t < T - 1) ++inner_truncations;
+  }
+  if (!(v = CheckTensor(s.final_observations(), F, {inner_truncations, observation_size},
+                        "final_observations"))
+           .ok()) {
+    return v;
+  }
+  if (s.policy_version() < 0) return Reject(Rejection::kShape, "negative policy version");
+  for (const auto& e : s.episodes()) {
+    if (!std::isfinite(e.episode_return()) || !std::isfinite(e.normalized_return()) ||
+        e.length() < 0) {
+      return Reject(Rejection::kNonFinite, "episode summary with a non-finite return");
+    }
+  }
+  return {};
+}
+
+Verdict CheckSnapshot(const v1::PolicySnapshot& s) {
+  const auto F = v1::Tensor::DTYPE_FLOAT32;
+  const auto& net = s.network();
+  if (net.observation_size() <= 0 || net.action_size() <= 0) {
+    return Reject(Rejection::kShape, "network sizes must be positive");
+  }
+  Verdict v;
+  if (!(v = CheckTensor(s.log_std(), F, {net.action_size()}, "log_std")).ok()) return v;
+  if (!(v = CheckTensor(s.observation_mean(), F, {net.observation_size()}, "observation_mean"))
+           .ok()) {
+    return v;
+  }
+  if (!(v = CheckTensor(s.observation_var(), F, {net.observation_size()}, "observation_var"))
+           .ok()) {
+    return v;
+  }
+  for (const auto& p : s.parameters()) {
+    std::vector<int64_t> any(p.tensor().shape_size(), -1);
+    if (!(v = CheckTensor(p.tensor(), F, any, p.name().c_str())).ok()) return v;
+  }
+  return {};
+}
+
+}  // namespace ragdoll::wire
