@@ -53,36 +53,45 @@ const char* RejectionName(Rejection r) {
   return "unknown";
 }
 
-Frames Pack(v1::Kind kind, const std::string& run_id, const std::string& sender,
-            const google::protobuf::MessageLite& payload) {
-  Frames f;
-  payload.SerializeToString(&f.payload);
+std::string Pack(v1::Kind kind, const std::string& run_id, const std::string& sender,
+                 const google::protobuf::MessageLite& payload, int64_t policy_version) {
   v1::Header h;
   h.set_protocol_version(kProtocolVersion);
   h.set_kind(kind);
   h.set_run_id(run_id);
   h.set_sender(sender);
-  h.set_payload_bytes(f.payload.size());
-  h.SerializeToString(&f.header);
-  return f;
+  h.set_payload_bytes(payload.ByteSizeLong());
+  h.set_policy_version(policy_version);
+  const uint32_t header_size = static_cast<uint32_t>(h.ByteSizeLong());
+  std::string out(4 + header_size + h.payload_bytes(), '\0');
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<char>((header_size >> (8 * i)) & 0xff);
+  h.SerializeToArray(&out[4], static_cast<int>(header_size));
+  payload.SerializeToArray(&out[4 + header_size], static_cast<int>(h.payload_bytes()));
+  return out;
 }
 
-Frames PackEmpty(v1::Kind kind, const std::string& run_id, const std::string& sender) {
-  Frames f;
-  v1::Header h;
-  h.set_protocol_version(kProtocolVersion);
-  h.set_kind(kind);
-  h.set_run_id(run_id);
-  h.set_sender(sender);
-  h.set_payload_bytes(0);
-  h.SerializeToString(&f.header);
-  return f;
+std::string PackEmpty(v1::Kind kind, const std::string& run_id, const std::string& sender) {
+  v1::Header empty_payload_marker;  // any message with no fields serialises to zero bytes
+  return Pack(kind, run_id, sender, empty_payload_marker);
 }
 
-Verdict ReadHeader(const void* data, size_t size, size_t payload_size, size_t max_payload_bytes,
-                   v1::Header* header) {
-  if (!header->ParseFromArray(data, static_cast<int>(size))) {
-    return Reject(Rejection::kMalformed, "header frame does not parse");
+Verdict ReadHeader(const void* data, size_t size, size_t max_message_bytes, v1::Header* header,
+                   size_t* payload_offset) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  if (size < 4) return Reject(Rejection::kMalformed, "message shorter than its length prefix");
+  if (size > max_message_bytes) {
+    return Reject(Rejection::kOversized,
+                  std::to_string(size) + " bytes, limit " + std::to_string(max_message_bytes));
+  }
+  uint32_t header_size = 0;
+  for (int i = 0; i < 4; ++i) header_size |= static_cast<uint32_t>(bytes[i]) << (8 * i);
+  if (header_size > size - 4) {
+    return Reject(Rejection::kMalformed, "header length " + std::to_string(header_size) +
+                                             " exceeds the message (" + std::to_string(size) +
+                                             " bytes)");
+  }
+  if (!header->ParseFromArray(bytes + 4, static_cast<int>(header_size))) {
+    return Reject(Rejection::kMalformed, "header does not parse");
   }
   if (header->protocol_version() != kProtocolVersion) {
     return Reject(Rejection::kVersion,
@@ -92,14 +101,24 @@ Verdict ReadHeader(const void* data, size_t size, size_t payload_size, size_t ma
   if (header->kind() == v1::KIND_UNSPECIFIED || !v1::Kind_IsValid(header->kind())) {
     return Reject(Rejection::kKind, "unknown message kind " + std::to_string(header->kind()));
   }
-  if (payload_size > max_payload_bytes || header->payload_bytes() > max_payload_bytes) {
-    return Reject(Rejection::kOversized, std::to_string(payload_size) + " bytes, limit " +
-                                             std::to_string(max_payload_bytes));
-  }
+  size_t payload_size = size - 4 - header_size;
   if (header->payload_bytes() != payload_size) {
     return Reject(Rejection::kSizeMismatch,
                   "header says " + std::to_string(header->payload_bytes()) +
-                      " payload bytes, frame has " + std::to_string(payload_size));
+                      " payload bytes, message has " + std::to_string(payload_size));
+  }
+  *payload_offset = 4 + header_size;
+  return {};
+}
+
+Verdict ReadMessage(const void* data, size_t size, size_t max_message_bytes, v1::Header* header,
+                    google::protobuf::MessageLite* message) {
+  size_t offset = 0;
+  Verdict v = ReadHeader(data, size, max_message_bytes, header, &offset);
+  if (!v.ok()) return v;
+  if (!message->ParseFromArray(static_cast<const char*>(data) + offset,
+                               static_cast<int>(size - offset))) {
+    return Reject(Rejection::kMalformed, "payload does not parse as " + message->GetTypeName());
   }
   return {};
 }
@@ -149,13 +168,16 @@ Verdict CheckTensor(const v1::Tensor& t, v1::Tensor::DType dtype, const std::vec
   int64_t n = 1;
   for (int i = 0; i < t.shape_size(); ++i) {
     int64_t d = t.shape(i);
+    // Bounds first, so that a hostile shape cannot overflow the element count.
     if (d < 0 || d > (int64_t{1} << 31) || (shape[i] >= 0 && d != shape[i])) {
       return Reject(Rejection::kShape, std::string(name) + ": shape " + ShapeString(t) +
                                            " does not match the expected dimension " +
                                            std::to_string(i) + " of " + std::to_string(shape[i]));
     }
+    if (d > 0 && n > (int64_t{1} << 32) / d) {
+      return Reject(Rejection::kShape, std::string(name) + ": too many elements");
+    }
     n *= d;
-    if (n > (int64_t{1} << 32)) return Reject(Rejection::kShape, std::string(name) + ": too big");
   }
   if (t.data().size() != static_cast<size_t>(n) * DTypeSize(dtype)) {
     return Reject(Rejection::kShape, std::string(name) + ": " + std::to_string(t.data().size()) +
@@ -196,7 +218,9 @@ Verdict CheckSegment(const v1::TrajectorySegment& s, int observation_size, int a
     return Reject(Rejection::kShape, "actions: expected [T, " + std::to_string(action_size) + "]");
   }
   const int64_t T = s.actions().shape(0);
-  if (T < 1) return Reject(Rejection::kShape, "actions: a segment needs at least one step");
+  if (T < 1 || T > (int64_t{1} << 24)) {
+    return Reject(Rejection::kShape, "actions: a segment needs 1 to 2^24 steps");
+  }
   Verdict v;
   if (!(v = CheckTensor(s.observations(), F, {T + 1, observation_size}, "observations")).ok())
     return v;
@@ -222,10 +246,10 @@ Verdict CheckSegment(const v1::TrajectorySegment& s, int observation_size, int a
   }
   if (s.policy_version() < 0) return Reject(Rejection::kShape, "negative policy version");
   for (const auto& e : s.episodes()) {
-    if (!std::isfinite(e.episode_return()) || !std::isfinite(e.normalized_return()) ||
-        e.length() < 0) {
+    if (!std::isfinite(e.episode_return()) || !std::isfinite(e.normalized_return())) {
       return Reject(Rejection::kNonFinite, "episode summary with a non-finite return");
     }
+    if (e.length() < 0) return Reject(Rejection::kShape, "episode summary with a negative length");
   }
   return {};
 }
@@ -245,6 +269,12 @@ Verdict CheckSnapshot(const v1::PolicySnapshot& s) {
   if (!(v = CheckTensor(s.observation_var(), F, {net.observation_size()}, "observation_var"))
            .ok()) {
     return v;
+  }
+  for (float var : FloatValues(s.observation_var())) {
+    if (var < 0) return Reject(Rejection::kShape, "observation_var: negative variance");
+  }
+  if (!std::isfinite(s.observation_count()) || s.observation_count() < 0) {
+    return Reject(Rejection::kNonFinite, "observation_count must be finite and non-negative");
   }
   for (const auto& p : s.parameters()) {
     std::vector<int64_t> any(p.tensor().shape_size(), -1);

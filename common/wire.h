@@ -36,21 +36,20 @@ struct Verdict {
   bool ok() const { return rejection == Rejection::kNone; }
 };
 
-// The two frames of a message.
-struct Frames {
-  std::string header;
-  std::string payload;
-};
+// A whole message as one frame: 4-byte little-endian header length, Header, payload.
+std::string Pack(v1::Kind kind, const std::string& run_id, const std::string& sender,
+                 const google::protobuf::MessageLite& payload, int64_t policy_version = 0);
+// A message without a payload.
+std::string PackEmpty(v1::Kind kind, const std::string& run_id, const std::string& sender);
 
-Frames Pack(v1::Kind kind, const std::string& run_id, const std::string& sender,
-            const google::protobuf::MessageLite& payload);
-// Header-only frames (for kinds without a body).
-Frames PackEmpty(v1::Kind kind, const std::string& run_id, const std::string& sender);
-
-// Parses and checks frame one against the size of frame two: version, known kind, declared
-// payload size, `max_payload_bytes`. Does not look at the payload.
-Verdict ReadHeader(const void* data, size_t size, size_t payload_size, size_t max_payload_bytes,
-                   v1::Header* header);
+// Parses and checks the header of a message of `size` bytes: framing, version, known kind,
+// declared payload size, `max_message_bytes`. Does not look at the payload, which starts at
+// *payload_offset.
+Verdict ReadHeader(const void* data, size_t size, size_t max_message_bytes, v1::Header* header,
+                   size_t* payload_offset);
+// ReadHeader, then parses the payload into `message` (kMalformed when it does not parse).
+Verdict ReadMessage(const void* data, size_t size, size_t max_message_bytes, v1::Header* header,
+                    google::protobuf::MessageLite* message);
 
 // Tensors.
 v1::Tensor FloatTensor(const float* data, const std::vector<int64_t>& shape);

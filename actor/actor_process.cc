@@ -1,0 +1,132 @@
+#include "actor/actor_process.h"
+
+#include <torch/torch.h>
+
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include "actor/rollout.h"
+#include "common/wire.h"
+
+namespace ragdoll::actor {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+}  // namespace
+
+int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoints& endpoints,
+             const std::atomic<bool>& stop) {
+  at::set_num_threads(config.threads);
+  RolloutWorker worker(env, config.environments, config.time_horizon, config.seed, config.actor_id);
+  zmq::context_t context(1);
+  zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
+  zmq::socket_t control = MakeSocket(context, zmq::socket_type::dealer, endpoints);
+  zmq::socket_t snapshots = MakeSocket(context, zmq::socket_type::sub, endpoints, 0);
+  control.set(zmq::sockopt::routing_id, config.actor_id);
+  snapshots.set(zmq::sockopt::conflate, 1);  // keep only the newest snapshot
+  snapshots.set(zmq::sockopt::subscribe, "");
+  push.connect(endpoints.Connect(endpoints.trajectory_port));
+  control.connect(endpoints.Connect(endpoints.control_port));
+  snapshots.connect(endpoints.Connect(endpoints.snapshot_port));
+
+  v1::Hello hello;
+  hello.set_actor_id(config.actor_id);
+  hello.set_environments(config.environments);
+  std::string hello_message = wire::Pack(v1::KIND_HELLO, config.run_id, config.actor_id, hello);
+  control.send(zmq::buffer(hello_message), zmq::send_flags::dontwait);
+
+  int64_t rejected_snapshots = 0;
+  // Installs a snapshot message if it is valid and for this run; returns true if installed.
+  auto install = [&](const zmq::message_t& message) {
+    v1::Header header;
+    v1::PolicySnapshot snapshot;
+    wire::Verdict v = wire::ReadMessage(message.data(), message.size(), endpoints.max_message_bytes,
+                                        &header, &snapshot);
+    if (v.ok() && header.kind() != v1::KIND_SNAPSHOT) return false;  // e.g. "no snapshot yet"
+    if (v.ok()) v = wire::CheckSnapshot(snapshot);
+    if (v.ok() && !config.run_id.empty() && header.run_id() != config.run_id) {
+      v = {wire::Rejection::kRunId, "snapshot of run " + header.run_id()};
+    }
+    if (!v.ok()) {
+      if (rejected_snapshots++ % 100 == 0) {
+        std::fprintf(stderr, "%s: dropped a snapshot (%s): %s\n", config.actor_id.c_str(),
+                     wire::RejectionName(v.rejection), v.detail.c_str());
+      }
+      return false;
+    }
+    if (snapshot.version() == worker.policy_version()) return false;
+    worker.SetPolicy(snapshot);
+    return true;
+  };
+
+  // Wait for the first snapshot: ask the broker, back off up to 5 s, say so in the log.
+  double backoff = 0.25;
+  while (!stop.load() && !worker.has_policy()) {
+    v1::SnapshotRequest request;
+    request.set_actor_id(config.actor_id);
+    request.set_have_version(-1);
+    std::string message =
+        wire::Pack(v1::KIND_SNAPSHOT_REQUEST, config.run_id, config.actor_id, request);
+    control.send(zmq::buffer(message), zmq::send_flags::dontwait);
+    auto asked = Clock::now();
+    while (!stop.load() && !worker.has_policy() && Since(asked) < backoff) {
+      zmq::message_t reply;
+      if (control.recv(reply, zmq::recv_flags::none)) install(reply);
+      zmq::message_t published;
+      if (snapshots.recv(published, zmq::recv_flags::dontwait)) install(published);
+    }
+    if (!worker.has_policy() && backoff >= 1.0) {
+      std::fprintf(stderr, "%s: waiting for the first policy snapshot from %s (retry in %.0f s)\n",
+                   config.actor_id.c_str(), endpoints.Connect(endpoints.control_port).c_str(),
+                   std::min(backoff * 2, 5.0));
+    }
+    backoff = std::min(backoff * 2, 5.0);
+  }
+  if (worker.has_policy()) {
+    std::fprintf(stderr, "%s: running %d environments with policy v%lld\n", config.actor_id.c_str(),
+                 config.environments, static_cast<long long>(worker.policy_version()));
+  }
+
+  auto last_heartbeat = Clock::now();
+  int64_t dropped_segments = 0;
+  while (!stop.load()) {
+    std::vector<v1::TrajectorySegment> segments = worker.Collect();
+    for (const auto& segment : segments) {
+      std::string message = wire::Pack(v1::KIND_TRAJECTORY, config.run_id, config.actor_id, segment,
+                                       segment.policy_version());
+      // Blocks (1 s at a time) while the broker's queue is full: backpressure from a busy
+      // learner. Segments that cannot leave before a stop are dropped.
+      bool sent = false;
+      while (!stop.load() && !sent) {
+        sent = push.send(zmq::buffer(message), zmq::send_flags::none).has_value();
+      }
+      if (!sent) ++dropped_segments;
+    }
+    // Only between segments: take the newest published snapshot, if any.
+    zmq::message_t published;
+    if (snapshots.recv(published, zmq::recv_flags::dontwait)) install(published);
+    zmq::message_t reply;
+    while (control.recv(reply, zmq::recv_flags::dontwait)) install(reply);
+    if (Since(last_heartbeat) >= config.heartbeat_interval) {
+      last_heartbeat = Clock::now();
+      v1::Heartbeat beat;
+      beat.set_actor_id(config.actor_id);
+      beat.set_policy_version(worker.policy_version());
+      beat.set_samples(worker.samples());
+      std::string message = wire::Pack(v1::KIND_HEARTBEAT, config.run_id, config.actor_id, beat);
+      control.send(zmq::buffer(message), zmq::send_flags::dontwait);
+    }
+  }
+  std::fprintf(stderr, "%s: stopped after %lld samples (%lld segments dropped at shutdown)\n",
+               config.actor_id.c_str(), static_cast<long long>(worker.samples()),
+               static_cast<long long>(dropped_segments));
+  return 0;
+}
+
+}  // namespace ragdoll::actor

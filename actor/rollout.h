@@ -1,0 +1,58 @@
+// K imitation environments stepped in lockstep with one batched policy forward per control step,
+// producing one trajectory segment of T steps per environment.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "actor/sim/env_config.h"
+#include "actor/sim/imitation_env.h"
+#include "common/policy.h"
+#include "common/running_stats.h"
+#include "common/wire.h"
+
+namespace ragdoll::actor {
+
+class RolloutWorker {
+ public:
+  // `seed` seeds the environments (seed, seed + 1, ...) and the action noise.
+  RolloutWorker(const sim::EnvConfig& config, int environments, int time_horizon, uint64_t seed,
+                std::string actor_id);
+
+  const sim::EnvSpec& spec() const { return envs_.front()->spec(); }
+  int environments() const { return static_cast<int>(envs_.size()); }
+
+  // Installs a snapshot's policy, action noise and observation statistics. Call between
+  // segments only. Throws std::invalid_argument when its sizes do not match the environment.
+  void SetPolicy(const v1::PolicySnapshot& snapshot);
+  bool has_policy() const { return policy_version_ >= 0; }
+  int64_t policy_version() const { return policy_version_; }
+
+  // Steps every environment T times with the current policy; one segment per environment.
+  std::vector<v1::TrajectorySegment> Collect();
+  // Mean actions for the current observations (deterministic evaluation); [K, act].
+  void Act(bool deterministic, std::vector<float>* actions, std::vector<float>* log_probs);
+
+  // Runs environment 0 from a reset to the end of one episode (for evaluation).
+  sim::EpisodeStats RunEpisode(bool deterministic);
+
+  int64_t samples() const { return samples_; }
+
+ private:
+  std::vector<std::unique_ptr<sim::ImitationEnv>> envs_;
+  int time_horizon_;
+  std::string actor_id_;
+  GaussianPolicy policy_{nullptr};
+  RunningStats stats_;
+  std::vector<float> log_std_;
+  int64_t policy_version_ = -1;
+  std::mt19937_64 noise_;
+  std::vector<float> observations_;  // [K, obs]: each environment's current observation
+  std::vector<float> normalized_;
+  int64_t samples_ = 0;
+};
+
+}  // namespace ragdoll::actor

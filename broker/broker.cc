@@ -1,0 +1,193 @@
+#include "broker/broker.h"
+
+#include <cstdio>
+
+namespace ragdoll::broker {
+
+int64_t BrokerCounters::Rejected() const {
+  int64_t total = 0;
+  for (int64_t r : rejected) total += r;
+  return total;
+}
+
+Broker::Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id)
+    : config_(config),
+      run_id_(std::move(run_id)),
+      trajectories_in_(MakeSocket(context, zmq::socket_type::pull, config.endpoints, 0)),
+      trajectories_out_(MakeSocket(context, zmq::socket_type::push, config.endpoints, 0)),
+      control_(MakeSocket(context, zmq::socket_type::router, config.endpoints, 0)),
+      snapshots_in_(MakeSocket(context, zmq::socket_type::pull, config.endpoints, 0)),
+      snapshots_out_(MakeSocket(context, zmq::socket_type::pub, config.endpoints, 0)) {
+  const Endpoints& e = config.endpoints;
+  // A full snapshot must never be dropped for a slow subscriber's queue: conflation happens on
+  // the subscriber side, so a small send queue per subscriber is enough.
+  snapshots_out_.set(zmq::sockopt::sndhwm, 4);
+  trajectories_in_.bind(e.Bind(e.trajectory_port));
+  control_.bind(e.Bind(e.control_port));
+  snapshots_out_.bind(e.Bind(e.snapshot_port));
+  trajectories_out_.bind(e.Bind(e.learner_port));
+  snapshots_in_.bind(e.Bind(e.learner_snapshot_port));
+}
+
+void Broker::Reject(const wire::Verdict& verdict, const char* where) {
+  int r = static_cast<int>(verdict.rejection);
+  ++counters_.rejected[r];
+  auto now = Clock::now();
+  if (now - last_logged_[r] > std::chrono::seconds(60)) {
+    last_logged_[r] = now;
+    std::fprintf(stderr, "broker: dropped a message on %s (%s): %s [%lld so far]\n", where,
+                 wire::RejectionName(verdict.rejection), verdict.detail.c_str(),
+                 static_cast<long long>(counters_.rejected[r]));
+  }
+}
+
+bool Broker::CheckRun(const v1::Header& header, const char* where) {
+  if (run_id_.empty() || header.run_id() == run_id_) return true;
+  Reject({wire::Rejection::kRunId, "run '" + header.run_id() + "', expected '" + run_id_ + "'"},
+         where);
+  return false;
+}
+
+void Broker::HandleTrajectory(zmq::message_t& message) {
+  v1::Header header;
+  size_t offset = 0;
+  wire::Verdict v = wire::ReadHeader(message.data(), message.size(),
+                                     config_.endpoints.max_message_bytes, &header, &offset);
+  if (v.ok() && header.kind() != v1::KIND_TRAJECTORY) {
+    v = {wire::Rejection::kKind, "expected a trajectory segment"};
+  }
+  if (!v.ok()) return Reject(v, "trajectories");
+  if (!CheckRun(header, "trajectories")) return;
+  last_seen_[header.sender()] = Clock::now();
+  size_t bytes = message.size();
+  // Forwarded as received: the broker never decodes tensors.
+  if (trajectories_out_.send(message, zmq::send_flags::dontwait)) {
+    ++counters_.forwarded;
+    counters_.forwarded_bytes += static_cast<int64_t>(bytes);
+  }
+}
+
+void Broker::HandleSnapshot(zmq::message_t& message) {
+  v1::Header header;
+  size_t offset = 0;
+  wire::Verdict v = wire::ReadHeader(message.data(), message.size(),
+                                     config_.endpoints.max_message_bytes, &header, &offset);
+  if (v.ok() && header.kind() != v1::KIND_SNAPSHOT) {
+    v = {wire::Rejection::kKind, "expected a policy snapshot"};
+  }
+  if (!v.ok()) return Reject(v, "snapshots");
+  if (!CheckRun(header, "snapshots")) return;
+  ++counters_.snapshots_received;
+  // The learner owns training state: whatever it sends is the newest, even a lower version
+  // after it resumed from an older checkpoint.
+  bool changed = header.policy_version() != snapshot_version_;
+  snapshot_.assign(static_cast<const char*>(message.data()), message.size());
+  snapshot_version_ = header.policy_version();
+  if (changed || counters_.snapshots_received % 8 == 0) {
+    snapshots_out_.send(zmq::buffer(snapshot_), zmq::send_flags::dontwait);
+    ++counters_.snapshots_published;
+  }
+}
+
+void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
+  v1::Header header;
+  size_t offset = 0;
+  wire::Verdict v = wire::ReadHeader(message.data(), message.size(),
+                                     config_.endpoints.max_message_bytes, &header, &offset);
+  if (!v.ok()) return Reject(v, "control");
+  if (!CheckRun(header, "control")) return;
+  last_seen_[header.sender()] = Clock::now();
+  switch (header.kind()) {
+    case v1::KIND_HELLO:
+      std::fprintf(stderr, "broker: actor %s connected\n", header.sender().c_str());
+      break;
+    case v1::KIND_HEARTBEAT:
+      ++counters_.heartbeats;
+      break;
+    case v1::KIND_SNAPSHOT_REQUEST: {
+      ++counters_.snapshot_requests;
+      control_.send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
+      if (snapshot_.empty()) {
+        std::string none = wire::PackEmpty(v1::KIND_NO_SNAPSHOT, run_id_, "broker");
+        control_.send(zmq::buffer(none), zmq::send_flags::dontwait);
+      } else {
+        control_.send(zmq::buffer(snapshot_), zmq::send_flags::dontwait);
+      }
+      break;
+    }
+    default:
+      Reject({wire::Rejection::kKind, "unexpected kind on the control socket"}, "control");
+  }
+}
+
+void Broker::PollOnce(int timeout_ms) {
+  zmq::pollitem_t items[] = {
+      {trajectories_in_.handle(), 0, ZMQ_POLLIN, 0},
+      {control_.handle(), 0, ZMQ_POLLIN, 0},
+      {snapshots_in_.handle(), 0, ZMQ_POLLIN, 0},
+      {trajectories_out_.handle(), 0, ZMQ_POLLOUT, 0},
+  };
+  zmq::poll(items, 4, std::chrono::milliseconds(timeout_ms));
+  // Read segments only while the learner can take them: a stalled learner stalls the actors
+  // (their send queues fill) instead of piling segments up here.
+  if ((items[0].revents & ZMQ_POLLIN) && (items[3].revents & ZMQ_POLLOUT)) {
+    for (int i = 0; i < 64; ++i) {
+      zmq::message_t message;
+      if (!trajectories_in_.recv(message, zmq::recv_flags::dontwait)) break;
+      HandleTrajectory(message);
+    }
+  }
+  if (items[1].revents & ZMQ_POLLIN) {
+    for (int i = 0; i < 64; ++i) {
+      zmq::message_t identity, message;
+      if (!control_.recv(identity, zmq::recv_flags::dontwait)) break;
+      if (!identity.more() || !control_.recv(message, zmq::recv_flags::dontwait)) {
+        Reject({wire::Rejection::kMalformed, "control message without a body"}, "control");
+        continue;
+      }
+      while (message.more()) {  // extra frames: drain and drop
+        zmq::message_t extra;
+        if (!control_.recv(extra, zmq::recv_flags::dontwait)) break;
+        message.swap(extra);
+      }
+      HandleControl(identity, message);
+    }
+  }
+  if (items[2].revents & ZMQ_POLLIN) {
+    for (int i = 0; i < 16; ++i) {
+      zmq::message_t message;
+      if (!snapshots_in_.recv(message, zmq::recv_flags::dontwait)) break;
+      HandleSnapshot(message);
+    }
+  }
+}
+
+int Broker::ActorsAlive() const {
+  auto now = Clock::now();
+  int alive = 0;
+  for (const auto& [id, seen] : last_seen_) {
+    if (id != "learner" &&
+        std::chrono::duration<double>(now - seen).count() < config_.actor_timeout) {
+      ++alive;
+    }
+  }
+  return alive;
+}
+
+void Broker::Run(const std::atomic<bool>& stop, double log_seconds) {
+  auto last_log = Clock::now();
+  while (!stop.load()) {
+    PollOnce(100);
+    if (std::chrono::duration<double>(Clock::now() - last_log).count() > log_seconds) {
+      last_log = Clock::now();
+      std::fprintf(stderr,
+                   "broker: %lld segments forwarded (%.1f MB), %lld rejected, snapshot v%lld, "
+                   "%d actors alive\n",
+                   static_cast<long long>(counters_.forwarded), counters_.forwarded_bytes / 1e6,
+                   static_cast<long long>(counters_.Rejected()),
+                   static_cast<long long>(snapshot_version_), ActorsAlive());
+    }
+  }
+}
+
+}  // namespace ragdoll::broker

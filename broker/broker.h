@@ -1,0 +1,73 @@
+// The broker: one poll loop that forwards trajectory segments from actors to the learner
+// without decoding them, caches the newest policy snapshot, publishes it to actors and serves it
+// to late joiners, and tracks which actors are alive. It holds no training state: restarting it
+// loses only messages in flight. Bad messages are counted and dropped, never fatal.
+#pragma once
+
+#include <zmq.hpp>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <string>
+
+#include "common/endpoints.h"
+#include "common/wire.h"
+
+namespace ragdoll::broker {
+
+struct BrokerConfig {
+  Endpoints endpoints;
+  double actor_timeout = 10.0;  // seconds without a heartbeat before an actor counts as gone
+};
+
+struct BrokerCounters {
+  int64_t forwarded = 0;  // segments passed to the learner
+  int64_t forwarded_bytes = 0;
+  int64_t snapshots_received = 0;
+  int64_t snapshots_published = 0;
+  int64_t snapshot_requests = 0;
+  int64_t heartbeats = 0;
+  std::array<int64_t, 9> rejected{};  // indexed by wire::Rejection
+  int64_t Rejected() const;
+};
+
+class Broker {
+ public:
+  // Binds every socket; throws zmq::error_t when a port is taken.
+  Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id);
+
+  // Polls until `stop` is set, logging a summary every `log_seconds`.
+  void Run(const std::atomic<bool>& stop, double log_seconds = 30);
+  // One poll of at most `timeout_ms`; handles whatever arrived.
+  void PollOnce(int timeout_ms);
+
+  const BrokerCounters& counters() const { return counters_; }
+  int ActorsAlive() const;
+  int64_t snapshot_version() const { return snapshot_version_; }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  void HandleTrajectory(zmq::message_t& message);
+  void HandleSnapshot(zmq::message_t& message);
+  void HandleControl(zmq::message_t& identity, zmq::message_t& message);
+  // Counts a dropped message and logs at most once a minute per reason.
+  void Reject(const wire::Verdict& verdict, const char* where);
+  bool CheckRun(const v1::Header& header, const char* where);
+
+  BrokerConfig config_;
+  std::string run_id_;
+  zmq::socket_t trajectories_in_;   // PULL from actors
+  zmq::socket_t trajectories_out_;  // PUSH to the learner
+  zmq::socket_t control_;           // ROUTER for actors' hello, heartbeats, snapshot requests
+  zmq::socket_t snapshots_in_;      // PULL from the learner
+  zmq::socket_t snapshots_out_;     // PUB to actors
+  std::string snapshot_;            // the newest snapshot message, as received
+  int64_t snapshot_version_ = -1;
+  std::map<std::string, Clock::time_point> last_seen_;
+  std::array<Clock::time_point, 9> last_logged_{};
+  BrokerCounters counters_;
+};
+
+}  // namespace ragdoll::broker

@@ -1,0 +1,69 @@
+#include "common/cli/experiment.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "common/config_section.h"
+
+namespace ragdoll::cli {
+
+Experiment ReadExperiment(const std::string& path, int port_base) {
+  Experiment e;
+  e.path = path;
+  e.name = std::filesystem::path(path).stem().string();
+  ConfigSection root = ConfigSection::FromFile(path);
+  e.environment = sim::ReadEnvConfig(root.Section("environment"),
+                                     std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml");
+  e.trainer = learner::ReadTrainerConfig(root.Section("trainer"));
+
+  ConfigSection actors = root.Section("actors");
+  e.actor_count = actors.Get<int>("count", 0);
+  if (e.actor_count < 0) actors.Fail("count", "must be 0 (one per spare core) or more");
+  e.actor.environments = actors.Get<int>("environments", e.actor.environments);
+  if (e.actor.environments < 1) actors.Fail("environments", "must be at least 1");
+  e.actor.threads = actors.Get<int>("threads", e.actor.threads);
+  if (e.actor.threads < 1) actors.Fail("threads", "must be at least 1");
+  e.actor.seed = actors.Get<uint64_t>("seed", e.actor.seed);
+  e.actor.heartbeat_interval = actors.Get<double>("heartbeat_interval", 1.0);
+  if (!(e.actor.heartbeat_interval > 0)) actors.Fail("heartbeat_interval", "must be positive");
+  actors.Finish();
+  e.actor.time_horizon = e.trainer.time_horizon;
+
+  ConfigSection broker = root.Section("broker");
+  e.broker.endpoints = ReadEndpoints(broker);
+  e.broker.actor_timeout = broker.Get<double>("actor_timeout", e.broker.actor_timeout);
+  if (!(e.broker.actor_timeout > 0)) broker.Fail("actor_timeout", "must be positive");
+  broker.Finish();
+  root.Finish();
+
+  if (port_base > 0) {
+    Endpoints& p = e.broker.endpoints;
+    p.trajectory_port = port_base;
+    p.control_port = port_base + 1;
+    p.snapshot_port = port_base + 2;
+    p.learner_port = port_base + 3;
+    p.learner_snapshot_port = port_base + 4;
+  }
+
+  // The effective configuration: the file with its paths made absolute, so that it still works
+  // from the run folder (evaluation reads it from there).
+  YAML::Node node = YAML::LoadFile(path);
+  node["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
+  node["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
+  YAML::Emitter out;
+  out << node;
+  e.text = std::string(out.c_str()) + "\n";
+  return e;
+}
+
+int ResolveActorCount(int configured) {
+  if (configured > 0) return configured;
+  int cores = static_cast<int>(std::thread::hardware_concurrency());
+  return std::max(1, cores - 1);
+}
+
+}  // namespace ragdoll::cli

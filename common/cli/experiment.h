@@ -1,0 +1,32 @@
+// A whole experiment configuration: every section of a YAML file in configs/, read and
+// validated at start-up by every role, so a typo stops all of them with the same message.
+#pragma once
+
+#include <string>
+
+#include "actor/actor_process.h"
+#include "actor/sim/env_config.h"
+#include "broker/broker.h"
+#include "learner/trainer_config.h"
+
+namespace ragdoll::cli {
+
+struct Experiment {
+  std::string path;  // the file
+  std::string name;  // its stem: the default run-id prefix and progress label
+  std::string text;  // the effective configuration (YAML, paths made absolute)
+  sim::EnvConfig environment;
+  learner::TrainerConfig trainer;
+  broker::BrokerConfig broker;
+  int actor_count = 0;       // actors.count; 0 = cores - 1, at least 1
+  actor::ActorConfig actor;  // per-actor settings (id, run id and seed are set per process)
+};
+
+// Reads `path`; throws ConfigError naming file, line, key and a hint for any problem.
+// `port_base` > 0 moves the five broker ports to port_base .. port_base + 4.
+Experiment ReadExperiment(const std::string& path, int port_base = 0);
+
+// actors.count resolved: cores - 1, at least 1, when not set.
+int ResolveActorCount(int configured);
+
+}  // namespace ragdoll::cli

@@ -1,0 +1,154 @@
+#include "common/cli/launcher.h"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+#include <vector>
+
+#include "common/cli/experiment.h"
+
+namespace ragdoll::cli {
+namespace fs = std::filesystem;
+namespace {
+
+struct Child {
+  std::string role;
+  pid_t pid = -1;
+  bool running = false;
+  int status = 0;
+};
+
+pid_t Spawn(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = fork();
+  if (pid == 0) {
+    execv("/proc/self/exe", argv.data());
+    std::perror("ragdoll train: exec");
+    _exit(127);
+  }
+  return pid;
+}
+
+std::string DefaultRunId(const std::string& name) {
+  std::time_t now = std::time(nullptr);
+  char stamp[32];
+  std::strftime(stamp, sizeof(stamp), "%Y%m%d-%H%M%S", std::localtime(&now));
+  return name + "-" + stamp;
+}
+
+// Sends SIGTERM to the running children of `role` and waits up to `seconds`, then SIGKILL.
+void Stop(std::vector<Child>& children, const std::string& role, double seconds) {
+  for (auto& c : children) {
+    if (c.running && c.role.rfind(role, 0) == 0) kill(c.pid, SIGTERM);
+  }
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (auto& c : children) {
+    if (!c.running || c.role.rfind(role, 0) != 0) continue;
+    while (c.running) {
+      if (waitpid(c.pid, &c.status, WNOHANG) == c.pid) {
+        c.running = false;
+      } else if (std::chrono::steady_clock::now() > deadline) {
+        std::fprintf(stderr, "ragdoll train: %s did not stop in %.0f s; killing it\n",
+                     c.role.c_str(), seconds);
+        kill(c.pid, SIGKILL);
+        waitpid(c.pid, &c.status, 0);
+        c.running = false;
+      } else {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
+  Experiment e = ReadExperiment(options.config, options.port_base);
+  const std::string run_id = options.run_id.empty() ? DefaultRunId(e.name) : options.run_id;
+  const fs::path run_dir = fs::path(options.runs_dir) / run_id;
+  fs::create_directories(run_dir);
+  {
+    std::ofstream out(run_dir / "config.yaml");
+    out << e.text;
+  }
+  const int actors = options.actors > 0 ? options.actors : ResolveActorCount(e.actor_count);
+  std::fprintf(
+      stderr, "ragdoll train: run %s in %s: 1 broker, 1 learner, %d actor%s x %d environments\n",
+      run_id.c_str(), run_dir.c_str(), actors, actors == 1 ? "" : "s", e.actor.environments);
+
+  std::vector<std::string> common = {options.config, "--run-id", run_id};
+  if (options.port_base > 0) {
+    common.push_back("--port-base");
+    common.push_back(std::to_string(options.port_base));
+  }
+  auto args = [&common](const std::string& role, std::vector<std::string> extra) {
+    std::vector<std::string> a = {"ragdoll", role};
+    a.insert(a.end(), common.begin(), common.end());
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  std::vector<Child> children;
+  auto launch = [&children](const std::string& role, const std::vector<std::string>& a) {
+    Child c;
+    c.role = role;
+    c.pid = Spawn(a);
+    c.running = c.pid > 0;
+    children.push_back(c);
+  };
+  launch("broker", args("broker", {}));
+  std::vector<std::string> learner_extra = {"--run-dir", run_dir.string()};
+  if (options.resume) learner_extra.push_back("--resume");
+  if (!options.init_from.empty()) {
+    learner_extra.push_back("--init-from");
+    learner_extra.push_back(options.init_from);
+  }
+  launch("learner", args("learner", learner_extra));
+  for (int i = 0; i < actors; ++i) {
+    launch("actor-" + std::to_string(i), args("actor", {"--index", std::to_string(i)}));
+  }
+
+  int exit_code = 0;
+  while (!stop.load()) {
+    int status = 0;
+    pid_t pid = waitpid(-1, &status, WNOHANG);
+    if (pid <= 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      continue;
+    }
+    for (auto& c : children) {
+      if (c.pid != pid) continue;
+      c.running = false;
+      c.status = status;
+      bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      if (c.role == "learner") {
+        exit_code = ok ? 0 : 1;
+        if (!ok) std::fprintf(stderr, "ragdoll train: the learner failed\n");
+      } else {
+        std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
+                     WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
+                     c.role == "broker" ? "" : "; training continues with the others");
+      }
+    }
+    bool learner_running = false;
+    for (const auto& c : children) learner_running |= c.role == "learner" && c.running;
+    if (!learner_running) break;
+  }
+  // Actors first (nothing to save), then the learner (final checkpoint), then the broker.
+  Stop(children, "actor", 10);
+  Stop(children, "learner", 60);
+  Stop(children, "broker", 10);
+  std::fprintf(stderr, "ragdoll train: stopped; run folder %s\n", run_dir.c_str());
+  return exit_code;
+}
+
+}  // namespace ragdoll::cli

@@ -1,0 +1,154 @@
+// ragdoll: one binary for every role.
+//   ragdoll train CONFIG         broker + learner + actors on this machine
+//   ragdoll broker|learner|actor CONFIG   one role, for distributed runs
+//   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out
+#include <signal.h>
+#include <unistd.h>
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "actor/evaluation.h"
+#include "actor/rollout.h"
+#include "broker/broker.h"
+#include "common/cli/experiment.h"
+#include "common/cli/launcher.h"
+#include "common/config_section.h"
+#include "learner/learner.h"
+#include "learner/learner_process.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+void OnSignal(int) { g_stop.store(true); }
+
+void InstallSignalHandlers() {
+  struct sigaction action = {};
+  action.sa_handler = OnSignal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+std::string Hostname() {
+  char name[256] = "host";
+  gethostname(name, sizeof(name) - 1);
+  return name;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace ragdoll;
+  CLI::App app("ragdoll: train physics-simulated characters to imitate animation clips.");
+  app.require_subcommand(1);
+
+  cli::TrainOptions train;
+  auto* train_cmd = app.add_subcommand("train", "broker, learner and actors on this machine");
+  train_cmd->add_option("config", train.config, "experiment YAML (configs/*.yaml)")->required();
+  train_cmd->add_option("--run-id", train.run_id, "run name (default: config name and time)");
+  train_cmd->add_option("--runs-dir", train.runs_dir, "where run folders go")
+      ->capture_default_str();
+  train_cmd->add_flag("--resume", train.resume, "continue the run --run-id from its checkpoint");
+  train_cmd->add_option("--init-from", train.init_from, "start from another run's weights");
+  train_cmd->add_option("--actors", train.actors, "actor processes (default: cores - 1)");
+  train_cmd->add_option("--port-base", train.port_base, "use ports PORT_BASE..PORT_BASE+4");
+
+  std::string config, run_id, run_dir, init_from;
+  int port_base = 0, index = 0;
+  bool resume = false;
+  auto* broker_cmd = app.add_subcommand("broker", "run the broker");
+  auto* learner_cmd = app.add_subcommand("learner", "run the learner");
+  auto* actor_cmd = app.add_subcommand("actor", "run one actor process");
+  for (auto* cmd : {broker_cmd, learner_cmd, actor_cmd}) {
+    cmd->add_option("config", config, "experiment YAML")->required();
+    cmd->add_option("--run-id", run_id, "run name, shared by every role")->required();
+    cmd->add_option("--port-base", port_base, "use ports PORT_BASE..PORT_BASE+4");
+  }
+  learner_cmd->add_option("--run-dir", run_dir, "run folder (default: runs/RUN_ID)");
+  learner_cmd->add_flag("--resume", resume, "continue from the newest checkpoint in the run");
+  learner_cmd->add_option("--init-from", init_from, "start from another run's weights");
+  actor_cmd->add_option("--index", index, "actor number, for its id and seed");
+
+  std::string eval_target, json_out;
+  int episodes = 20;
+  uint64_t eval_seed = 12345;
+  auto* eval_cmd = app.add_subcommand("eval", "evaluate a trained policy deterministically");
+  eval_cmd->add_option("run_or_checkpoint", eval_target, "runs/<id> or a checkpoint file")
+      ->required();
+  eval_cmd->add_option("--episodes", episodes, "episodes to run")->capture_default_str();
+  eval_cmd->add_option("--seed", eval_seed, "seed of the start phases")->capture_default_str();
+  eval_cmd->add_option("--json", json_out, "also write the result to this file");
+
+  CLI11_PARSE(app, argc, argv);
+  InstallSignalHandlers();
+  try {
+    if (*train_cmd) return cli::RunTrain(train, g_stop);
+
+    if (*eval_cmd) {
+      std::string checkpoint = learner::FindCheckpoint(eval_target);
+      if (checkpoint.empty()) throw ConfigError(eval_target + ": no checkpoint found");
+      // checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml
+      auto run = std::filesystem::path(checkpoint).parent_path().parent_path();
+      cli::Experiment e = cli::ReadExperiment((run / "config.yaml").string());
+      sim::EnvConfig env = e.environment;
+      actor::RolloutWorker probe(env, 1, 1, 0, "eval");
+      learner::Learner l(e.trainer, probe.spec().observation_size, probe.spec().action_size);
+      l.Load(checkpoint);
+      actor::EvaluationResult r = actor::Evaluate(env, l.Snapshot(), episodes, eval_seed);
+      std::string json = r.ToJson();
+      std::cout << json << "\n";
+      std::fprintf(stderr,
+                   "%s (policy v%lld, %lld samples): normalised return %.3f, length %.1f steps, "
+                   "fall rate %.2f over %d episodes\n",
+                   checkpoint.c_str(), static_cast<long long>(l.version()),
+                   static_cast<long long>(l.samples()), r.normalized_return, r.episode_length,
+                   r.fall_rate, r.episodes);
+      if (!json_out.empty()) std::ofstream(json_out) << json << "\n";
+      return 0;
+    }
+
+    cli::Experiment e = cli::ReadExperiment(config, port_base);
+    if (*broker_cmd) {
+      zmq::context_t context(1);
+      broker::Broker b(context, e.broker, run_id);
+      std::fprintf(stderr, "broker: listening on %s (actors) and %s (learner)\n",
+                   e.broker.endpoints.Bind(e.broker.endpoints.trajectory_port).c_str(),
+                   e.broker.endpoints.Bind(e.broker.endpoints.learner_port).c_str());
+      b.Run(g_stop);
+      return 0;
+    }
+    if (*actor_cmd) {
+      actor::ActorConfig a = e.actor;
+      a.run_id = run_id;
+      a.actor_id = Hostname() + "-actor-" + std::to_string(index);
+      a.seed = e.actor.seed * 1000003ull + static_cast<uint64_t>(index) * 7919ull;
+      return actor::RunActor(e.environment, a, e.broker.endpoints, g_stop);
+    }
+    if (*learner_cmd) {
+      actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
+      learner::LearnerProcessConfig l;
+      l.run_id = run_id;
+      l.run_dir = run_dir.empty() ? "runs/" + run_id : run_dir;
+      l.label = e.name;
+      l.config_text = e.text;
+      l.observation_size = probe.spec().observation_size;
+      l.action_size = probe.spec().action_size;
+      l.resume = resume;
+      l.init_from = init_from;
+      return learner::RunLearner(e.trainer, l, e.broker.endpoints, g_stop);
+    }
+  } catch (const ConfigError& error) {
+    std::fprintf(stderr, "ragdoll: %s\n", error.what());
+    return 2;
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "ragdoll: error: %s\n", error.what());
+    return 1;
+  }
+  return 0;
+}

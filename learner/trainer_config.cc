@@ -1,0 +1,88 @@
+#include "learner/trainer_config.h"
+
+#include <cmath>
+
+#include "common/config_section.h"
+
+namespace ragdoll::learner {
+namespace {
+
+double PositiveNumber(const ConfigSection& s, const std::string& key, double fallback) {
+  double v = s.Get<double>(key, fallback);
+  if (!std::isfinite(v) || v <= 0) s.Fail(key, "must be a positive number");
+  return v;
+}
+
+double Fraction(const ConfigSection& s, const std::string& key, double fallback) {
+  double v = s.Get<double>(key, fallback);
+  if (!(v >= 0 && v <= 1)) s.Fail(key, "must be in [0, 1]");
+  return v;
+}
+
+int64_t AtLeast(const ConfigSection& s, const std::string& key, int64_t fallback, int64_t low) {
+  // Accept 3e7 as well as 30000000: YAML users write both.
+  double v = s.Get<double>(key, static_cast<double>(fallback));
+  if (!std::isfinite(v) || v < low || v != std::floor(v)) {
+    s.Fail(key, "must be a whole number of at least " + std::to_string(low));
+  }
+  return static_cast<int64_t>(v);
+}
+
+}  // namespace
+
+TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
+  TrainerConfig c;
+  ConfigSection h = s.Section("hyperparameters");
+  c.batch_size = AtLeast(h, "batch_size", c.batch_size, 1);
+  c.buffer_size = AtLeast(h, "buffer_size", c.buffer_size, 1);
+  if (c.buffer_size < c.batch_size) {
+    h.Fail("buffer_size", "must be at least batch_size (" + std::to_string(c.batch_size) + ")");
+  }
+  c.learning_rate = PositiveNumber(h, "learning_rate", c.learning_rate);
+  std::string schedule = h.Get<std::string>("learning_rate_schedule", "linear");
+  if (schedule != "linear" && schedule != "constant") {
+    h.Fail("learning_rate_schedule", "expected 'linear' or 'constant', got '" + schedule + "'");
+  }
+  c.linear_schedule = schedule == "linear";
+  c.beta = h.Get<double>("beta", c.beta);
+  if (!(c.beta >= 0)) h.Fail("beta", "must be zero or more");
+  c.epsilon = PositiveNumber(h, "epsilon", c.epsilon);
+  c.lambd = Fraction(h, "lambd", c.lambd);
+  c.num_epoch = static_cast<int>(AtLeast(h, "num_epoch", c.num_epoch, 1));
+  c.max_grad_norm = PositiveNumber(h, "max_grad_norm", c.max_grad_norm);
+  c.value_coef = PositiveNumber(h, "value_coef", c.value_coef);
+  c.clip_value_loss = h.Get<bool>("clip_value_loss", c.clip_value_loss);
+  h.Finish();
+
+  ConfigSection n = s.Section("network_settings");
+  c.normalize = n.Get<bool>("normalize", c.normalize);
+  int units = static_cast<int>(AtLeast(n, "hidden_units", 512, 1));
+  int layers = static_cast<int>(AtLeast(n, "num_layers", 2, 1));
+  c.network.hidden_units.assign(layers, units);
+  c.network.activation = n.Get<std::string>("activation", c.network.activation);
+  if (c.network.activation != "tanh" && c.network.activation != "relu" &&
+      c.network.activation != "elu") {
+    n.Fail("activation", "expected tanh, relu or elu");
+  }
+  c.network.init_log_std = n.Get<double>("init_log_std", c.network.init_log_std);
+  n.Finish();
+
+  ConfigSection rewards = s.Section("reward_signals");
+  ConfigSection extrinsic = rewards.Section("extrinsic");
+  c.gamma = Fraction(extrinsic, "gamma", c.gamma);
+  extrinsic.Get<double>("strength", 1.0);  // ML-Agents' key; only one signal here, weight 1
+  extrinsic.Finish();
+  rewards.Finish();
+
+  c.max_steps = AtLeast(s, "max_steps", c.max_steps, 1);
+  c.time_horizon = static_cast<int>(AtLeast(s, "time_horizon", c.time_horizon, 1));
+  c.checkpoint_interval = AtLeast(s, "checkpoint_interval", c.checkpoint_interval, 1);
+  c.keep_checkpoints = static_cast<int>(AtLeast(s, "keep_checkpoints", c.keep_checkpoints, 1));
+  c.max_policy_lag = static_cast<int>(AtLeast(s, "max_policy_lag", c.max_policy_lag, 0));
+  c.threads = static_cast<int>(AtLeast(s, "threads", c.threads, 1));
+  c.seed = static_cast<uint64_t>(AtLeast(s, "seed", static_cast<int64_t>(c.seed), 0));
+  s.Finish();
+  return c;
+}
+
+}  // namespace ragdoll::learner
