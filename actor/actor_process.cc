@@ -67,6 +67,7 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
 
   // Wait for the first snapshot: ask the broker, back off up to 5 s, say so in the log.
   double backoff = 0.25;
+  int attempts = 0;
   while (!stop.load() && !worker.has_policy()) {
     v1::SnapshotRequest request;
     request.set_actor_id(config.actor_id);
@@ -81,8 +82,9 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       zmq::message_t published;
       if (snapshots.recv(published, zmq::recv_flags::dontwait)) install(published);
     }
-    if (!worker.has_policy() && backoff >= 1.0) {
-      std::fprintf(stderr, "%s: waiting for the first policy snapshot from %s (retry in %.0f s)\n",
+    if (!worker.has_policy() && (attempts++ == 0 || backoff >= 5.0)) {
+      std::fprintf(stderr,
+                   "%s: waiting for the first policy snapshot from %s (retrying every %.1f s)\n",
                    config.actor_id.c_str(), endpoints.Connect(endpoints.control_port).c_str(),
                    std::min(backoff * 2, 5.0));
     }

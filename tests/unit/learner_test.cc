@@ -1,0 +1,198 @@
+#include "learner/learner.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "common/config_section.h"
+
+namespace ragdoll::learner {
+namespace {
+
+constexpr int kObs = 5, kAct = 2, kT = 8;
+
+TrainerConfig SmallConfig() {
+  TrainerConfig c;
+  c.batch_size = 16;
+  c.buffer_size = 32;
+  c.num_epoch = 2;
+  c.time_horizon = kT;
+  c.network.hidden_units = {8, 8};
+  c.max_steps = 1000;
+  c.max_policy_lag = 1;
+  return c;
+}
+
+// A valid segment of random numbers, with one inner truncation and one termination.
+v1::TrajectorySegment RandomSegment(std::mt19937& rng, int64_t version) {
+  std::normal_distribution<float> g(0, 1);
+  std::vector<float> obs((kT + 1) * kObs), act(kT * kAct), logp(kT), rew(kT), fin(kObs);
+  for (float& x : obs) x = g(rng);
+  for (float& x : act) x = g(rng);
+  for (float& x : logp) x = -2 + 0.1f * g(rng);
+  for (float& x : rew) x = g(rng);
+  for (float& x : fin) x = g(rng);
+  std::vector<uint8_t> term(kT, 0), trunc(kT, 0);
+  trunc[3] = 1;
+  term[6] = 1;
+  v1::TrajectorySegment s;
+  s.set_policy_version(version);
+  *s.mutable_observations() = wire::FloatTensor(obs.data(), {kT + 1, kObs});
+  *s.mutable_actions() = wire::FloatTensor(act.data(), {kT, kAct});
+  *s.mutable_log_probs() = wire::FloatTensor(logp.data(), {kT});
+  *s.mutable_rewards() = wire::FloatTensor(rew.data(), {kT});
+  *s.mutable_terminated() = wire::ByteTensor(term.data(), {kT});
+  *s.mutable_truncated() = wire::ByteTensor(trunc.data(), {kT});
+  *s.mutable_final_observations() = wire::FloatTensor(fin.data(), {1, kObs});
+  auto* e = s.add_episodes();
+  e->set_episode_return(3.5);
+  e->set_length(7);
+  e->set_normalized_return(0.5);
+  EXPECT_TRUE(wire::CheckSegment(s, kObs, kAct).ok());
+  return s;
+}
+
+void Fill(Learner& learner, uint32_t seed) {
+  std::mt19937 rng(seed);
+  while (!learner.Ready()) {
+    ASSERT_EQ(learner.Add(RandomSegment(rng, learner.version())), Learner::Accept::kAccepted);
+  }
+}
+
+bool SameParameters(torch::nn::Module& a, torch::nn::Module& b) {
+  auto pa = a.named_parameters(), pb = b.named_parameters();
+  if (pa.size() != pb.size()) return false;
+  for (const auto& item : pa) {
+    if (!torch::equal(item.value(), pb[item.key()])) return false;
+  }
+  return true;
+}
+
+class LearnerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("ragdoll_learner_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path dir_;
+};
+
+TEST_F(LearnerTest, UpdateBumpsVersionCountsSamplesAndUpdatesStatistics) {
+  torch::manual_seed(1);
+  Learner learner(SmallConfig(), kObs, kAct);
+  Fill(learner, 1);
+  EXPECT_EQ(learner.buffered_samples(), 32);
+  EXPECT_EQ(learner.episodes().episodes, 4);
+  EXPECT_DOUBLE_EQ(learner.episodes().Mean(learner.episodes().episode_return), 3.5);
+  UpdateStats u = learner.Update();
+  EXPECT_EQ(learner.version(), 1);
+  EXPECT_EQ(learner.samples(), 32);
+  EXPECT_EQ(learner.iterations(), 1);
+  EXPECT_EQ(learner.buffered_samples(), 0);
+  EXPECT_EQ(u.samples, 32);
+  EXPECT_TRUE(std::isfinite(u.policy_loss) && std::isfinite(u.value_loss));
+  EXPECT_GT(u.value_loss, 0);
+  EXPECT_NEAR(u.learning_rate, 3e-4, 1e-15);  // linear schedule at 0 samples
+  EXPECT_EQ(learner.stats().count(), 32);     // observations of the 32 steps
+}
+
+TEST_F(LearnerTest, DropsSegmentsOlderThanMaxPolicyLag) {
+  torch::manual_seed(1);
+  Learner learner(SmallConfig(), kObs, kAct);
+  Fill(learner, 1);
+  learner.Update();
+  Fill(learner, 2);
+  learner.Update();  // version 2; max_policy_lag 1 accepts versions 1 and 2
+  std::mt19937 rng(3);
+  EXPECT_EQ(learner.Add(RandomSegment(rng, 0)), Learner::Accept::kStale);
+  EXPECT_EQ(learner.Add(RandomSegment(rng, 1)), Learner::Accept::kAccepted);
+  EXPECT_EQ(learner.stale_dropped(), 1);
+}
+
+// Save then load restores parameters, optimiser state and counters: the next update of the
+// restored learner is bit-identical to the next update of the original.
+TEST_F(LearnerTest, CheckpointRestoresTrainingStateExactly) {
+  torch::manual_seed(1);
+  Learner original(SmallConfig(), kObs, kAct);
+  Fill(original, 1);
+  original.Update();
+  Fill(original, 2);
+  original.Update();
+  const std::string path = (dir_ / "checkpoint.pt").string();
+  original.Save(path, "trainer: {}\n");
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+
+  torch::manual_seed(99);  // a different initialisation, overwritten by Load
+  Learner restored(SmallConfig(), kObs, kAct);
+  EXPECT_EQ(restored.Load(path), "trainer: {}\n");
+  EXPECT_EQ(restored.version(), 2);
+  EXPECT_EQ(restored.samples(), 64);
+  EXPECT_EQ(restored.iterations(), 2);
+  EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
+  EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
+  EXPECT_EQ(original.stats().mean(), restored.stats().mean());
+  EXPECT_EQ(original.stats().var(), restored.stats().var());
+
+  Fill(original, 3);
+  Fill(restored, 3);
+  torch::manual_seed(7);
+  original.Update();
+  torch::manual_seed(7);
+  restored.Update();
+  // Adam's moments were restored too: otherwise this step would differ.
+  EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
+  EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
+}
+
+TEST_F(LearnerTest, BadCheckpointsAreRejectedNamingTheFile) {
+  Learner learner(SmallConfig(), kObs, kAct);
+  const std::string garbage = (dir_ / "garbage.pt").string();
+  std::ofstream(garbage) << "not a checkpoint";
+  try {
+    learner.Load(garbage);
+    FAIL() << "expected an error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(garbage), std::string::npos) << e.what();
+  }
+  // A checkpoint of other sizes.
+  Learner other(SmallConfig(), kObs + 1, kAct);
+  const std::string wrong = (dir_ / "wrong.pt").string();
+  other.Save(wrong, "");
+  try {
+    learner.Load(wrong);
+    FAIL() << "expected an error";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("sizes 6/2"), std::string::npos) << e.what();
+  }
+  // Truncated file: an error, never a crash; the learner keeps its state.
+  const std::string good = (dir_ / "good.pt").string();
+  learner.Save(good, "");
+  auto size = std::filesystem::file_size(good);
+  std::filesystem::resize_file(good, size / 2);
+  EXPECT_THROW(learner.Load(good), ConfigError);
+}
+
+TEST_F(LearnerTest, SnapshotCarriesPolicyAndStatistics) {
+  torch::manual_seed(1);
+  Learner learner(SmallConfig(), kObs, kAct);
+  Fill(learner, 1);
+  learner.Update();
+  v1::PolicySnapshot s = learner.Snapshot();
+  EXPECT_TRUE(wire::CheckSnapshot(s).ok());
+  EXPECT_EQ(s.version(), 1);
+  EXPECT_EQ(s.network().hidden_units_size(), 2);
+  GaussianPolicy copy = PolicyFromSnapshot(s);
+  torch::Tensor x = torch::randn({3, kObs});
+  EXPECT_TRUE(torch::equal(copy->forward(x), learner.policy()->forward(x)));
+  RunningStats stats = StatsFromSnapshot(s);
+  for (int i = 0; i < kObs; ++i) {
+    EXPECT_NEAR(stats.mean()[i], learner.stats().mean()[i], 1e-6);
+  }
+}
+
+}  // namespace
+}  // namespace ragdoll::learner
