@@ -39,7 +39,7 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
   hello.set_actor_id(config.actor_id);
   hello.set_environments(config.environments);
   std::string hello_message = wire::Pack(v1::KIND_HELLO, config.run_id, config.actor_id, hello);
-  control.send(zmq::buffer(hello_message), zmq::send_flags::dontwait);
+  Send(control, zmq::buffer(hello_message), zmq::send_flags::dontwait);
 
   int64_t rejected_snapshots = 0;
   // Installs a snapshot message if it is valid and for this run; returns true if installed.
@@ -74,13 +74,13 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
     request.set_have_version(-1);
     std::string message =
         wire::Pack(v1::KIND_SNAPSHOT_REQUEST, config.run_id, config.actor_id, request);
-    control.send(zmq::buffer(message), zmq::send_flags::dontwait);
+    Send(control, zmq::buffer(message), zmq::send_flags::dontwait);
     auto asked = Clock::now();
     while (!stop.load() && !worker.has_policy() && Since(asked) < backoff) {
       zmq::message_t reply;
-      if (control.recv(reply, zmq::recv_flags::none)) install(reply);
+      if (Receive(control, reply)) install(reply);
       zmq::message_t published;
-      if (snapshots.recv(published, zmq::recv_flags::dontwait)) install(published);
+      if (Receive(snapshots, published, zmq::recv_flags::dontwait)) install(published);
     }
     if (!worker.has_policy() && (attempts++ == 0 || backoff >= 5.0)) {
       std::fprintf(stderr,
@@ -106,15 +106,15 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       // learner. Segments that cannot leave before a stop are dropped.
       bool sent = false;
       while (!stop.load() && !sent) {
-        sent = push.send(zmq::buffer(message), zmq::send_flags::none).has_value();
+        sent = Send(push, zmq::buffer(message));
       }
       if (!sent) ++dropped_segments;
     }
     // Only between segments: take the newest published snapshot, if any.
     zmq::message_t published;
-    if (snapshots.recv(published, zmq::recv_flags::dontwait)) install(published);
+    if (Receive(snapshots, published, zmq::recv_flags::dontwait)) install(published);
     zmq::message_t reply;
-    while (control.recv(reply, zmq::recv_flags::dontwait)) install(reply);
+    while (Receive(control, reply, zmq::recv_flags::dontwait)) install(reply);
     if (Since(last_heartbeat) >= config.heartbeat_interval) {
       last_heartbeat = Clock::now();
       v1::Heartbeat beat;
@@ -122,7 +122,7 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       beat.set_policy_version(worker.policy_version());
       beat.set_samples(worker.samples());
       std::string message = wire::Pack(v1::KIND_HEARTBEAT, config.run_id, config.actor_id, beat);
-      control.send(zmq::buffer(message), zmq::send_flags::dontwait);
+      Send(control, zmq::buffer(message), zmq::send_flags::dontwait);
     }
   }
   std::fprintf(stderr, "%s: stopped after %lld samples (%lld segments dropped at shutdown)\n",

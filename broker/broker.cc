@@ -1,5 +1,6 @@
 #include "broker/broker.h"
 
+#include <cerrno>
 #include <cstdio>
 
 namespace ragdoll::broker {
@@ -121,16 +122,23 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
 }
 
 void Broker::PollOnce(int timeout_ms) {
+  // Read segments only while the learner can take them: a stalled or absent learner stalls the
+  // actors (their send queues fill) instead of piling segments up here. Waiting on the inbound
+  // socket meanwhile would wake this loop at once, over and over: wait for the learner instead.
+  const bool learner_ready = (trajectories_out_.get(zmq::sockopt::events) & ZMQ_POLLOUT) != 0;
   zmq::pollitem_t items[] = {
-      {trajectories_in_.handle(), 0, ZMQ_POLLIN, 0},
+      {trajectories_in_.handle(), 0, static_cast<short>(learner_ready ? ZMQ_POLLIN : 0), 0},
       {control_.handle(), 0, ZMQ_POLLIN, 0},
       {snapshots_in_.handle(), 0, ZMQ_POLLIN, 0},
-      {trajectories_out_.handle(), 0, ZMQ_POLLOUT, 0},
+      {trajectories_out_.handle(), 0, static_cast<short>(learner_ready ? 0 : ZMQ_POLLOUT), 0},
   };
-  zmq::poll(items, 4, std::chrono::milliseconds(timeout_ms));
-  // Read segments only while the learner can take them: a stalled learner stalls the actors
-  // (their send queues fill) instead of piling segments up here.
-  if ((items[0].revents & ZMQ_POLLIN) && (items[3].revents & ZMQ_POLLOUT)) {
+  try {
+    zmq::poll(items, 4, std::chrono::milliseconds(timeout_ms));
+  } catch (const zmq::error_t& e) {
+    if (e.num() == EINTR) return;  // a signal: Run() checks its stop flag
+    throw;
+  }
+  if (items[0].revents & ZMQ_POLLIN) {
     for (int i = 0; i < 64; ++i) {
       zmq::message_t message;
       if (!trajectories_in_.recv(message, zmq::recv_flags::dontwait)) break;

@@ -1,5 +1,7 @@
 #include "common/endpoints.h"
 
+#include <cerrno>
+
 #include "common/config_section.h"
 
 namespace ragdoll {
@@ -41,6 +43,24 @@ zmq::socket_t MakeSocket(zmq::context_t& context, zmq::socket_type type, const E
   socket.set(zmq::sockopt::sndtimeo, 1000);
   socket.set(zmq::sockopt::maxmsgsize, endpoints.max_message_bytes);
   return socket;
+}
+
+bool Receive(zmq::socket_t& socket, zmq::message_t& message, zmq::recv_flags flags) {
+  try {
+    return socket.recv(message, flags).has_value();
+  } catch (const zmq::error_t& e) {
+    if (e.num() == EINTR) return false;
+    throw;
+  }
+}
+
+bool Send(zmq::socket_t& socket, zmq::const_buffer data, zmq::send_flags flags) {
+  try {
+    return socket.send(data, flags).has_value();
+  } catch (const zmq::error_t& e) {
+    if (e.num() == EINTR) return false;
+    throw;
+  }
 }
 
 }  // namespace ragdoll

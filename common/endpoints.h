@@ -35,4 +35,11 @@ Endpoints ReadEndpoints(const ConfigSection& section);
 zmq::socket_t MakeSocket(zmq::context_t& context, zmq::socket_type type, const Endpoints& endpoints,
                          int receive_timeout_ms = 100);
 
+// recv/send that treat a signal's interruption (EINTR) like a timeout: false, nothing moved.
+// The caller's loop then checks its stop flag, which the signal handler has set.
+bool Receive(zmq::socket_t& socket, zmq::message_t& message,
+             zmq::recv_flags flags = zmq::recv_flags::none);
+bool Send(zmq::socket_t& socket, zmq::const_buffer data,
+          zmq::send_flags flags = zmq::send_flags::none);
+
 }  // namespace ragdoll

@@ -92,7 +92,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   push.connect(endpoints.Connect(endpoints.learner_snapshot_port));
 
   std::string snapshot;
-  auto publish = [&]() { push.send(zmq::buffer(snapshot), zmq::send_flags::dontwait); };
+  auto publish = [&]() { Send(push, zmq::buffer(snapshot), zmq::send_flags::dontwait); };
   auto make_snapshot = [&]() {
     snapshot = wire::Pack(v1::KIND_SNAPSHOT, config.run_id, "learner", learner.Snapshot(),
                           learner.version());
@@ -128,7 +128,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
 
   while (!stop.load() && learner.samples() < trainer.max_steps) {
     zmq::message_t message;
-    if (pull.recv(message, zmq::recv_flags::none)) {
+    if (Receive(pull, message)) {
       v1::Header header;
       v1::TrajectorySegment segment;
       wire::Verdict v = wire::ReadMessage(message.data(), message.size(),

@@ -1,0 +1,111 @@
+#include "broker/broker.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace ragdoll::broker {
+namespace {
+
+// The broker in this process on loopback ports, driven one poll at a time.
+class BrokerTest : public ::testing::Test {
+ protected:
+  BrokerTest() {
+    config_.endpoints.host = "127.0.0.1";
+    config_.endpoints.bind = "127.0.0.1";
+    config_.endpoints.max_message_bytes = 1 << 20;
+    // Free ports: try random ones until the broker can bind all five.
+    std::mt19937 rng(std::random_device{}());
+    for (int attempt = 0; attempt < 20 && !broker_; ++attempt) {
+      int base = 20000 + static_cast<int>(rng() % 20000);
+      config_.endpoints.trajectory_port = base;
+      config_.endpoints.control_port = base + 1;
+      config_.endpoints.snapshot_port = base + 2;
+      config_.endpoints.learner_port = base + 3;
+      config_.endpoints.learner_snapshot_port = base + 4;
+      try {
+        broker_ = std::make_unique<Broker>(context_, config_, "run");
+      } catch (const zmq::error_t&) {
+        broker_.reset();
+      }
+    }
+    if (!broker_) throw std::runtime_error("no free ports for the broker");
+  }
+  zmq::socket_t Connect(zmq::socket_type type, int port) {
+    zmq::socket_t s = MakeSocket(context_, type, config_.endpoints, 0);
+    s.connect(config_.endpoints.Connect(port));
+    return s;
+  }
+  // Polls until `done` or about a second has passed.
+  template <typename F>
+  bool PollUntil(F done) {
+    for (int i = 0; i < 100 && !done(); ++i) broker_->PollOnce(10);
+    return done();
+  }
+  bool Receive(zmq::socket_t& s, zmq::message_t* m) {
+    for (int i = 0; i < 100; ++i) {
+      broker_->PollOnce(10);
+      if (s.recv(*m, zmq::recv_flags::dontwait)) return true;
+    }
+    return false;
+  }
+
+  zmq::context_t context_{1};
+  BrokerConfig config_;
+  std::unique_ptr<Broker> broker_;
+};
+
+TEST_F(BrokerTest, ForwardsSegmentsUnchangedAndCountsBadMessages) {
+  zmq::socket_t actor = Connect(zmq::socket_type::push, config_.endpoints.trajectory_port);
+  zmq::socket_t learner = Connect(zmq::socket_type::pull, config_.endpoints.learner_port);
+  v1::TrajectorySegment segment;
+  segment.set_actor_id("a");
+  std::string good = wire::Pack(v1::KIND_TRAJECTORY, "run", "a", segment, 3);
+  actor.send(zmq::buffer(std::string("\x02\x00\x00\x00junk", 8)), zmq::send_flags::none);
+  actor.send(zmq::buffer(wire::Pack(v1::KIND_TRAJECTORY, "other-run", "a", segment)),
+             zmq::send_flags::none);
+  actor.send(zmq::buffer(wire::PackEmpty(v1::KIND_HEARTBEAT, "run", "a")), zmq::send_flags::none);
+  actor.send(zmq::buffer(good), zmq::send_flags::none);
+  zmq::message_t forwarded;
+  ASSERT_TRUE(Receive(learner, &forwarded));
+  EXPECT_EQ(forwarded.to_string(), good);  // byte for byte
+  const BrokerCounters& c = broker_->counters();
+  EXPECT_EQ(c.forwarded, 1);
+  EXPECT_EQ(c.forwarded_bytes, static_cast<int64_t>(good.size()));
+  EXPECT_EQ(c.rejected[static_cast<int>(wire::Rejection::kMalformed)], 1);
+  EXPECT_EQ(c.rejected[static_cast<int>(wire::Rejection::kRunId)], 1);
+  EXPECT_EQ(c.rejected[static_cast<int>(wire::Rejection::kKind)], 1);
+  EXPECT_EQ(c.Rejected(), 3);
+}
+
+TEST_F(BrokerTest, ServesTheNewestSnapshotToLateJoinersAndTracksActors) {
+  zmq::socket_t control = Connect(zmq::socket_type::dealer, config_.endpoints.control_port);
+  auto ask = [&]() {
+    v1::SnapshotRequest request;
+    request.set_actor_id("late");
+    control.send(zmq::buffer(wire::Pack(v1::KIND_SNAPSHOT_REQUEST, "run", "late", request)),
+                 zmq::send_flags::none);
+    zmq::message_t reply;
+    EXPECT_TRUE(Receive(control, &reply));
+    v1::Header h;
+    size_t offset;
+    EXPECT_TRUE(wire::ReadHeader(reply.data(), reply.size(), 1 << 20, &h, &offset).ok());
+    return h;
+  };
+  EXPECT_EQ(ask().kind(), v1::KIND_NO_SNAPSHOT);  // nothing yet
+
+  zmq::socket_t learner = Connect(zmq::socket_type::push, config_.endpoints.learner_snapshot_port);
+  v1::PolicySnapshot snapshot;
+  snapshot.set_version(7);
+  learner.send(zmq::buffer(wire::Pack(v1::KIND_SNAPSHOT, "run", "learner", snapshot, 7)),
+               zmq::send_flags::none);
+  ASSERT_TRUE(PollUntil([&] { return broker_->snapshot_version() == 7; }));
+  v1::Header h = ask();
+  EXPECT_EQ(h.kind(), v1::KIND_SNAPSHOT);
+  EXPECT_EQ(h.policy_version(), 7);
+  EXPECT_EQ(broker_->counters().snapshot_requests, 2);
+  EXPECT_EQ(broker_->ActorsAlive(), 1);  // the late joiner, seen through its requests
+}
+
+}  // namespace
+}  // namespace ragdoll::broker
