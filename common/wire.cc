@@ -123,28 +123,29 @@ Verdict ReadMessage(const void* data, size_t size, size_t max_message_bytes, v1:
   return {};
 }
 
-v1::Tensor FloatTensor(const float* data, const std::vector<int64_t>& shape) {
+namespace {
+
+v1::Tensor MakeTensor(v1::Tensor::DType dtype, const void* data,
+                      const std::vector<int64_t>& shape) {
   v1::Tensor t;
-  t.set_dtype(v1::Tensor::DTYPE_FLOAT32);
+  t.set_dtype(dtype);
   int64_t n = 1;
   for (int64_t d : shape) {
     t.add_shape(d);
     n *= d;
   }
-  t.set_data(reinterpret_cast<const char*>(data), static_cast<size_t>(n) * sizeof(float));
+  t.set_data(static_cast<const char*>(data), static_cast<size_t>(n) * DTypeSize(dtype));
   return t;
 }
 
+}  // namespace
+
+v1::Tensor FloatTensor(const float* data, const std::vector<int64_t>& shape) {
+  return MakeTensor(v1::Tensor::DTYPE_FLOAT32, data, shape);
+}
+
 v1::Tensor ByteTensor(const uint8_t* data, const std::vector<int64_t>& shape) {
-  v1::Tensor t;
-  t.set_dtype(v1::Tensor::DTYPE_UINT8);
-  int64_t n = 1;
-  for (int64_t d : shape) {
-    t.add_shape(d);
-    n *= d;
-  }
-  t.set_data(reinterpret_cast<const char*>(data), static_cast<size_t>(n));
-  return t;
+  return MakeTensor(v1::Tensor::DTYPE_UINT8, data, shape);
 }
 
 int64_t Elements(const v1::Tensor& t) {
