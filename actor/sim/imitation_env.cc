@@ -84,10 +84,11 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
 void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const {
   clip_->SampleInto(time, &pose_scratch_);
   character_->PoseToQpos(pose_scratch_, qpos);
-  PoseVelocity v = clip_->SampleVelocity(time);
+  Vec3 linear, angular;
+  clip_->SampleRootVelocity(time, &linear, &angular);
   for (int k = 0; k < 3; ++k) {
-    qvel[k] = v.root_linear[k];
-    qvel[3 + k] = v.root_angular[k];
+    qvel[k] = linear[k];
+    qvel[3 + k] = angular[k];
   }
   // Hinge velocities: a central difference of the decomposed (and clamped) angles, so that the
   // reference velocity is exactly the rate of change of the reference joint coordinates.

@@ -127,25 +127,37 @@ void MotionClip::SampleInto(double time, Pose* out) const {
   }
 }
 
-PoseVelocity MotionClip::SampleVelocity(double time) const {
+void MotionClip::SampleRootVelocity(double time, Vec3* linear, Vec3* angular) const {
   int i;
   double alpha, cycles;
   Locate(time, &i, &alpha, &cycles);
-  PoseVelocity out;
   if (!loop_ && (time < 0 || time > duration())) {  // holding a pose
-    out.joint_angular.assign(frames_[0].joint_rotations.size(), {0, 0, 0});
-    return out;
+    *linear = {0, 0, 0};
+    *angular = {0, 0, 0};
+    return;
   }
   const Pose& a = frames_[i];
   const Pose& b = frames_[i + 1];
   double dt = durations_[i];
-  for (int k = 0; k < 3; ++k) out.root_linear[k] = (b.root_position[k] - a.root_position[k]) / dt;
+  for (int k = 0; k < 3; ++k) (*linear)[k] = (b.root_position[k] - a.root_position[k]) / dt;
   // Slerp turns at a constant rate about a fixed axis, so the velocity in the current frame
   // equals the one in the key frame's frame.
-  out.root_angular = AngularVelocity(a.root_rotation, b.root_rotation, dt);
-  out.joint_angular.resize(a.joint_rotations.size());
+  *angular = AngularVelocity(a.root_rotation, b.root_rotation, dt);
+}
+
+PoseVelocity MotionClip::SampleVelocity(double time) const {
+  PoseVelocity out;
+  SampleRootVelocity(time, &out.root_linear, &out.root_angular);
+  out.joint_angular.assign(frames_[0].joint_rotations.size(), {0, 0, 0});
+  if (!loop_ && (time < 0 || time > duration())) return out;  // holding a pose
+  int i;
+  double alpha, cycles;
+  Locate(time, &i, &alpha, &cycles);
+  const Pose& a = frames_[i];
+  const Pose& b = frames_[i + 1];
   for (size_t j = 0; j < a.joint_rotations.size(); ++j) {
-    out.joint_angular[j] = AngularVelocity(a.joint_rotations[j], b.joint_rotations[j], dt);
+    out.joint_angular[j] =
+        AngularVelocity(a.joint_rotations[j], b.joint_rotations[j], durations_[i]);
   }
   return out;
 }

@@ -55,6 +55,8 @@ class MotionClip {
   void SampleInto(double time, Pose* out) const;
   // The velocity at `time`: the derivative of Sample() (constant between two key frames).
   PoseVelocity SampleVelocity(double time) const;
+  // Only the root's part of SampleVelocity (no allocation): what the environment needs each step.
+  void SampleRootVelocity(double time, Vec3* linear, Vec3* angular) const;
 
  private:
   // Key frame index i and blend alpha in [0, 1) for `time`, plus whole cycles elapsed.
