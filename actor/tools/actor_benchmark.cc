@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 
 #include "actor/rollout.h"
 #include "actor/sim/motion_io.h"
@@ -44,8 +46,11 @@ int main(int argc, char** argv) {
                           e.trainer.network);
     worker.SetPolicy(MakeSnapshot(policy, RunningStats(worker.spec().observation_size), 0, 0));
 
-    // The environments alone: the same K environments, stepped with the policy's mean action of
-    // the first step held (no forward, no sampling), so the simulation work is comparable.
+    // The environments alone: a second set of K environments with the same seeds replays,
+    // step for step, the actions the policy loop sampled. Both loops therefore simulate the
+    // identical trajectories (rollouts are bit-identical for a seed), fall and reset at the same
+    // steps; the difference is only the policy: normalisation, the batched forward, sampling and
+    // building the segments. Packing the segments for the wire is timed separately.
     auto character = sim::Character::Load(e.environment.character, e.environment.physics_dt());
     auto clip = std::make_shared<const sim::MotionClip>(sim::LoadMotion(e.environment.motion));
     std::vector<std::unique_ptr<sim::ImitationEnv>> envs;
@@ -53,34 +58,62 @@ int main(int argc, char** argv) {
       envs.push_back(std::make_unique<sim::ImitationEnv>(character, clip, e.environment, 1 + k));
     }
     const int O = worker.spec().observation_size, A = worker.spec().action_size;
-    std::vector<float> obs(static_cast<size_t>(K) * O), action(A, 0.0f);
+    std::vector<float> obs(static_cast<size_t>(K) * O);
     for (int k = 0; k < K; ++k) envs[k]->Reset(obs.data() + k * O);
 
-    std::vector<double> with_policy, env_only, ratio;
+    std::vector<double> with_policy, env_only, ratio, packed_ratio;
+    int64_t resets = 0;
+    size_t bytes = 0;
     for (int r = 0; r < repeats; ++r) {
       auto t0 = Clock::now();
-      worker.Collect();
-      double policy_rate =
-          static_cast<double>(K) * steps / std::chrono::duration<double>(Clock::now() - t0).count();
+      std::vector<v1::TrajectorySegment> segments = worker.Collect();
+      const double policy_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+      auto tp = Clock::now();
+      for (const auto& s : segments) {
+        bytes += wire::Pack(v1::KIND_TRAJECTORY, "bench", "bench", s, s.policy_version()).size();
+      }
+      const double pack_seconds = std::chrono::duration<double>(Clock::now() - tp).count();
+
+      std::vector<std::vector<float>> replay(K);
+      for (int k = 0; k < K; ++k) replay[k] = wire::FloatValues(segments[k].actions());
+      std::vector<float> replay_rewards(static_cast<size_t>(K) * steps);
       auto t1 = Clock::now();
       for (int t = 0; t < steps; ++t) {
         for (int k = 0; k < K; ++k) {
-          sim::StepResult s = envs[k]->Step(action.data(), obs.data() + k * O);
-          if (s.terminated || s.truncated) envs[k]->Reset(obs.data() + k * O);
+          sim::StepResult s = envs[k]->Step(replay[k].data() + t * A, obs.data() + k * O);
+          replay_rewards[k * steps + t] = static_cast<float>(s.reward);
+          if (s.terminated || s.truncated) {
+            envs[k]->Reset(obs.data() + k * O);
+            ++resets;
+          }
         }
       }
-      double env_rate =
-          static_cast<double>(K) * steps / std::chrono::duration<double>(Clock::now() - t1).count();
-      with_policy.push_back(policy_rate);
-      env_only.push_back(env_rate);
-      ratio.push_back(policy_rate / env_rate);
+      const double env_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+      // The replay must have followed the policy loop's trajectories exactly.
+      for (int k = 0; k < K; ++k) {
+        std::vector<float> want = wire::FloatValues(segments[k].rewards());
+        if (!std::equal(want.begin(), want.end(), replay_rewards.begin() + k * steps)) {
+          throw std::runtime_error("replayed environment " + std::to_string(k) +
+                                   " diverged from the policy loop");
+        }
+      }
+      const double n = static_cast<double>(K) * steps;
+      with_policy.push_back(n / policy_seconds);
+      env_only.push_back(n / env_seconds);
+      ratio.push_back(env_seconds / policy_seconds);
+      packed_ratio.push_back(env_seconds / (policy_seconds + pack_seconds));
     }
     std::printf("actor (%s, K=%d, network %d x %zu, 1 thread, median of %d):\n", config.c_str(), K,
                 e.trainer.network.hidden_units.front(), e.trainer.network.hidden_units.size(),
                 repeats);
-    std::printf("  environments alone        %8.0f samples/s\n", Median(env_only));
-    std::printf("  with policy in the loop   %8.0f samples/s  ratio %.3f\n", Median(with_policy),
-                Median(ratio));
+    std::printf("  environments alone (same actions)  %8.0f samples/s  (%lld resets)\n",
+                Median(env_only), static_cast<long long>(resets));
+    std::printf("  with policy in the loop            %8.0f samples/s  ratio %.3f\n",
+                Median(with_policy), Median(ratio));
+    std::printf(
+        "  ... and packing the segments       %8s            ratio %.3f  (%.0f bytes/sample)\n", "",
+        Median(packed_ratio),
+        static_cast<double>(bytes) / (static_cast<double>(K) * steps * repeats));
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "ragdoll-bench-actor: %s\n", ex.what());
     return 1;
