@@ -2,11 +2,13 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <thread>
 
 #include "actor/rollout.h"
+#include "common/metrics.h"
 #include "common/wire.h"
 
 namespace ragdoll::actor {
@@ -18,14 +20,76 @@ double Since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
+// Counts the connections a socket makes: the first, then one per reconnection (broker restart,
+// network loss).
+class ConnectionMonitor : public zmq::monitor_t {
+ public:
+  ConnectionMonitor(zmq::socket_t& socket, const std::string& name) {
+    init(socket, "inproc://monitor-" + name, ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED);
+  }
+  void Poll() {
+    while (check_event(0)) {
+    }
+  }
+  int64_t connects() const { return connects_; }
+  bool connected() const { return connected_; }
+
+ private:
+  void on_event_connected(const zmq_event_t&, const char*) override {
+    ++connects_;
+    connected_ = true;
+  }
+  void on_event_disconnected(const zmq_event_t&, const char*) override { connected_ = false; }
+  int64_t connects_ = 0;
+  bool connected_ = false;
+};
+
+struct ActorMetrics {
+  ActorMetrics(MetricsEndpoint& m, const std::string& actor)
+      : samples(m.Counter("ragdoll_actor_samples_total", "Environment steps simulated",
+                          {{"actor", actor}})),
+        segments(m.Counter("ragdoll_actor_segments_sent_total", "Trajectory segments sent",
+                           {{"actor", actor}})),
+        sent_bytes(m.Counter("ragdoll_actor_sent_bytes_total", "Bytes of segments sent",
+                             {{"actor", actor}})),
+        episodes(
+            m.Counter("ragdoll_actor_episodes_total", "Episodes finished", {{"actor", actor}})),
+        version(m.Gauge("ragdoll_actor_snapshot_version",
+                        "Version of the policy the actor runs (-1: none yet)", {{"actor", actor}})),
+        swaps(m.Counter("ragdoll_actor_snapshot_swaps_total", "Policy snapshots installed",
+                        {{"actor", actor}})),
+        rejected(m.Counter("ragdoll_actor_rejected_snapshots_total",
+                           "Snapshot messages dropped as invalid or of another run",
+                           {{"actor", actor}})),
+        reconnects(m.Counter("ragdoll_actor_reconnects_total",
+                             "Reconnections to the broker after the first connection",
+                             {{"actor", actor}})),
+        connected(m.Gauge("ragdoll_actor_connected",
+                          "1 while the trajectory socket is connected to the broker",
+                          {{"actor", actor}})),
+        environments(m.Gauge("ragdoll_actor_environments", "Environments stepped in lockstep",
+                             {{"actor", actor}})) {
+    version.Set(-1);
+  }
+  prometheus::Counter &samples, &segments, &sent_bytes, &episodes;
+  prometheus::Gauge& version;
+  prometheus::Counter &swaps, &rejected, &reconnects;
+  prometheus::Gauge &connected, &environments;
+};
+
 }  // namespace
 
 int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoints& endpoints,
              const std::atomic<bool>& stop) {
   at::set_num_threads(config.threads);
   RolloutWorker worker(env, config.environments, config.time_horizon, config.seed, config.actor_id);
+  MetricsEndpoint endpoint(config.actor_id, config.metrics_bind, config.metrics_port,
+                           config.run_id);
+  ActorMetrics metrics(endpoint, config.actor_id);
+  metrics.environments.Set(config.environments);
   zmq::context_t context(1);
   zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
+  ConnectionMonitor monitor(push, config.actor_id + "-push");
   zmq::socket_t control = MakeSocket(context, zmq::socket_type::dealer, endpoints);
   zmq::socket_t snapshots = MakeSocket(context, zmq::socket_type::sub, endpoints, 0);
   control.set(zmq::sockopt::routing_id, config.actor_id);
@@ -54,6 +118,7 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       v = {wire::Rejection::kRunId, "snapshot of run " + header.run_id()};
     }
     if (!v.ok()) {
+      metrics.rejected.Increment();
       if (rejected_snapshots++ % 100 == 0) {
         std::fprintf(stderr, "%s: dropped a snapshot (%s): %s\n", config.actor_id.c_str(),
                      wire::RejectionName(v.rejection), v.detail.c_str());
@@ -62,6 +127,8 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
     }
     if (snapshot.version() == worker.policy_version()) return false;
     worker.SetPolicy(snapshot);
+    metrics.swaps.Increment();
+    metrics.version.Set(static_cast<double>(snapshot.version()));
     return true;
   };
 
@@ -99,7 +166,9 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
   int64_t dropped_segments = 0;
   while (!stop.load()) {
     std::vector<v1::TrajectorySegment> segments = worker.Collect();
+    metrics.samples.Increment(static_cast<double>(config.environments) * config.time_horizon);
     for (const auto& segment : segments) {
+      metrics.episodes.Increment(segment.episodes_size());
       std::string message = wire::Pack(v1::KIND_TRAJECTORY, config.run_id, config.actor_id, segment,
                                        segment.policy_version());
       // Blocks (1 s at a time) while the broker's queue is full: backpressure from a busy
@@ -108,8 +177,17 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       while (!stop.load() && !sent) {
         sent = Send(push, zmq::buffer(message));
       }
-      if (!sent) ++dropped_segments;
+      if (sent) {
+        metrics.segments.Increment();
+        metrics.sent_bytes.Increment(static_cast<double>(message.size()));
+      } else {
+        ++dropped_segments;
+      }
     }
+    monitor.Poll();
+    AdvanceTo(metrics.reconnects,
+              static_cast<double>(std::max<int64_t>(monitor.connects() - 1, 0)));
+    metrics.connected.Set(monitor.connected() ? 1 : 0);
     // Only between segments: take the newest published snapshot, if any.
     zmq::message_t published;
     if (Receive(snapshots, published, zmq::recv_flags::dontwait)) install(published);

@@ -11,7 +11,46 @@ int64_t BrokerCounters::Rejected() const {
   return total;
 }
 
-Broker::Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id)
+// The broker's Prometheus series, mirroring BrokerCounters.
+struct Broker::Metrics {
+  explicit Metrics(MetricsEndpoint& m)
+      : forwarded(m.Counter("ragdoll_broker_segments_forwarded_total",
+                            "Trajectory segments forwarded to the learner")),
+        forwarded_bytes(m.Counter("ragdoll_broker_forwarded_bytes_total",
+                                  "Bytes of trajectory segments forwarded to the learner")),
+        received_bytes(m.Counter("ragdoll_broker_received_bytes_total",
+                                 "Bytes received on every socket, dropped messages included")),
+        snapshots_received(m.Counter("ragdoll_broker_snapshots_received_total",
+                                     "Policy snapshots received from the learner")),
+        snapshots_published(m.Counter("ragdoll_broker_snapshots_published_total",
+                                      "Policy snapshots published to actors")),
+        snapshot_requests(m.Counter("ragdoll_broker_snapshot_requests_total",
+                                    "Snapshot requests served to joining actors")),
+        heartbeats(m.Counter("ragdoll_broker_heartbeats_total", "Actor heartbeats received")),
+        actors(
+            m.Gauge("ragdoll_broker_actors_connected", "Actors heard from within actor_timeout")),
+        snapshot_version(m.Gauge("ragdoll_broker_snapshot_version",
+                                 "Policy version of the cached snapshot (-1: none yet)")) {
+    snapshot_version.Set(-1);
+    for (const char* socket : {"trajectories", "snapshots", "control"}) {
+      for (int r = 1; r <= static_cast<int>(wire::Rejection::kRunId); ++r) {
+        rejected[socket].push_back(&m.Counter(
+            "ragdoll_broker_messages_rejected_total", "Messages dropped by the broker, by reason",
+            {{"socket", socket},
+             {"reason", wire::RejectionName(static_cast<wire::Rejection>(r))}}));
+      }
+    }
+  }
+  prometheus::Counter &forwarded, &forwarded_bytes, &received_bytes, &snapshots_received,
+      &snapshots_published, &snapshot_requests, &heartbeats;
+  prometheus::Gauge &actors, &snapshot_version;
+  std::map<std::string, std::vector<prometheus::Counter*>> rejected;  // [socket][reason - 1]
+};
+
+Broker::~Broker() = default;
+
+Broker::Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id,
+               MetricsEndpoint* metrics)
     : config_(config),
       run_id_(std::move(run_id)),
       trajectories_in_(MakeSocket(context, zmq::socket_type::pull, config.endpoints, 0)),
@@ -28,11 +67,13 @@ Broker::Broker(zmq::context_t& context, const BrokerConfig& config, std::string 
   snapshots_out_.bind(e.Bind(e.snapshot_port));
   trajectories_out_.bind(e.Bind(e.learner_port));
   snapshots_in_.bind(e.Bind(e.learner_snapshot_port));
+  if (metrics) metrics_ = std::make_unique<Metrics>(*metrics);
 }
 
 void Broker::Reject(const wire::Verdict& verdict, const char* where) {
   int r = static_cast<int>(verdict.rejection);
   ++counters_.rejected[r];
+  if (metrics_ && r > 0) metrics_->rejected.at(where)[r - 1]->Increment();
   auto now = Clock::now();
   if (now - last_logged_[r] > std::chrono::seconds(60)) {
     last_logged_[r] = now;
@@ -65,6 +106,10 @@ void Broker::HandleTrajectory(zmq::message_t& message) {
   if (trajectories_out_.send(message, zmq::send_flags::dontwait)) {
     ++counters_.forwarded;
     counters_.forwarded_bytes += static_cast<int64_t>(bytes);
+    if (metrics_) {
+      metrics_->forwarded.Increment();
+      metrics_->forwarded_bytes.Increment(static_cast<double>(bytes));
+    }
   }
 }
 
@@ -79,6 +124,10 @@ void Broker::HandleSnapshot(zmq::message_t& message) {
   if (!v.ok()) return Reject(v, "snapshots");
   if (!CheckRun(header, "snapshots")) return;
   ++counters_.snapshots_received;
+  if (metrics_) {
+    metrics_->snapshots_received.Increment();
+    metrics_->snapshot_version.Set(static_cast<double>(header.policy_version()));
+  }
   // The learner owns training state: whatever it sends is the newest, even a lower version
   // after it resumed from an older checkpoint.
   bool changed = header.policy_version() != snapshot_version_;
@@ -87,6 +136,7 @@ void Broker::HandleSnapshot(zmq::message_t& message) {
   if (changed || counters_.snapshots_received % 8 == 0) {
     snapshots_out_.send(zmq::buffer(snapshot_), zmq::send_flags::dontwait);
     ++counters_.snapshots_published;
+    if (metrics_) metrics_->snapshots_published.Increment();
   }
 }
 
@@ -104,9 +154,11 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
       break;
     case v1::KIND_HEARTBEAT:
       ++counters_.heartbeats;
+      if (metrics_) metrics_->heartbeats.Increment();
       break;
     case v1::KIND_SNAPSHOT_REQUEST: {
       ++counters_.snapshot_requests;
+      if (metrics_) metrics_->snapshot_requests.Increment();
       control_.send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
       if (snapshot_.empty()) {
         std::string none = wire::PackEmpty(v1::KIND_NO_SNAPSHOT, run_id_, "broker");
@@ -142,6 +194,7 @@ void Broker::PollOnce(int timeout_ms) {
     for (int i = 0; i < 64; ++i) {
       zmq::message_t message;
       if (!trajectories_in_.recv(message, zmq::recv_flags::dontwait)) break;
+      if (metrics_) metrics_->received_bytes.Increment(static_cast<double>(message.size()));
       HandleTrajectory(message);
     }
   }
@@ -158,6 +211,7 @@ void Broker::PollOnce(int timeout_ms) {
         if (!control_.recv(extra, zmq::recv_flags::dontwait)) break;
         message.swap(extra);
       }
+      if (metrics_) metrics_->received_bytes.Increment(static_cast<double>(message.size()));
       HandleControl(identity, message);
     }
   }
@@ -165,8 +219,13 @@ void Broker::PollOnce(int timeout_ms) {
     for (int i = 0; i < 16; ++i) {
       zmq::message_t message;
       if (!snapshots_in_.recv(message, zmq::recv_flags::dontwait)) break;
+      if (metrics_) metrics_->received_bytes.Increment(static_cast<double>(message.size()));
       HandleSnapshot(message);
     }
+  }
+  if (metrics_ && Clock::now() - last_gauges_ > std::chrono::milliseconds(500)) {
+    last_gauges_ = Clock::now();
+    metrics_->actors.Set(ActorsAlive());
   }
 }
 

@@ -10,9 +10,11 @@
 #include <atomic>
 #include <chrono>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "common/endpoints.h"
+#include "common/metrics.h"
 #include "common/wire.h"
 
 namespace ragdoll::broker {
@@ -35,8 +37,11 @@ struct BrokerCounters {
 
 class Broker {
  public:
-  // Binds every socket; throws zmq::error_t when a port is taken.
-  Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id);
+  // Binds every socket; throws zmq::error_t when a port is taken. With `metrics`, keeps the
+  // broker's Prometheus series in its registry (it must outlive the broker).
+  Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id,
+         MetricsEndpoint* metrics = nullptr);
+  ~Broker();
 
   // Polls until `stop` is set, logging a summary every `log_seconds`.
   void Run(const std::atomic<bool>& stop, double log_seconds = 30);
@@ -68,6 +73,9 @@ class Broker {
   std::map<std::string, Clock::time_point> last_seen_;
   std::array<Clock::time_point, 9> last_logged_{};
   BrokerCounters counters_;
+  struct Metrics;
+  std::unique_ptr<Metrics> metrics_;
+  Clock::time_point last_gauges_{};
 };
 
 }  // namespace ragdoll::broker

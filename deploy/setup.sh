@@ -17,6 +17,11 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # integration tests: a real Prometheus server, queried over HTTP from the shell
+  prometheus curl jq
+  # the container end-to-end test: Podman runs deploy/docker-compose.yml (no Docker engine
+  # needed), on a Debian base image built locally with debootstrap
+  podman podman-compose runc netavark aardvark-dns debootstrap
 )
 
 missing=()

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "common/config_section.h"
+#include "common/metrics.h"
 #include "common/wire.h"
 #include "learner/learner.h"
 
@@ -38,6 +39,76 @@ std::vector<fs::path> Checkpoints(const fs::path& folder) {
   std::sort(out.begin(), out.end());  // names carry zero-padded sample counts
   return out;
 }
+
+// The learner's Prometheus series. Episode and PPO figures are gauges holding the latest PPO
+// iteration's means; totals are counters of this process (a resumed run's totals are gauges).
+struct LearnerMetrics {
+  explicit LearnerMetrics(MetricsEndpoint& m)
+      : episode_return(
+            m.Gauge("ragdoll_episode_return",
+                    "Mean undiscounted return of the episodes of the last PPO iteration")),
+        normalized_return(m.Gauge("ragdoll_episode_normalized_return",
+                                  "Mean return per step relative to the maximum (0..1) of the "
+                                  "episodes of the last PPO iteration")),
+        episode_length(m.Gauge("ragdoll_episode_length_steps",
+                               "Mean episode length in control steps, last PPO iteration")),
+        fall_ratio(m.Gauge("ragdoll_episode_fall_ratio",
+                           "Fraction of the last PPO iteration's episodes that ended in a fall")),
+        episodes(m.Counter("ragdoll_episodes_total", "Episodes finished by all actors")),
+        policy_loss(m.Gauge("ragdoll_ppo_policy_loss", "Clipped surrogate loss, last update")),
+        value_loss(m.Gauge("ragdoll_ppo_value_loss", "Value loss, last update")),
+        entropy(m.Gauge("ragdoll_ppo_entropy", "Policy entropy (nats), last update")),
+        approx_kl(m.Gauge("ragdoll_ppo_approx_kl", "Approximate KL divergence, last update")),
+        clip_fraction(m.Gauge("ragdoll_ppo_clip_ratio",
+                              "Fraction of samples whose ratio was clipped, last update")),
+        explained_variance(m.Gauge("ragdoll_ppo_explained_variance",
+                                   "Explained variance of the value targets, last update")),
+        learning_rate(m.Gauge("ragdoll_ppo_learning_rate", "Adam learning rate")),
+        updates(m.Counter("ragdoll_ppo_updates_total", "PPO updates run by this learner process")),
+        update_seconds(m.Histogram("ragdoll_ppo_update_duration_seconds",
+                                   "Wall time of one PPO update (all epochs)",
+                                   {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64})),
+        skipped_steps(m.Counter("ragdoll_ppo_skipped_gradient_steps_total",
+                                "Gradient steps skipped for a non-finite gradient")),
+        samples(m.Counter("ragdoll_learner_samples_total",
+                          "Samples trained on by this learner process")),
+        run_samples(m.Gauge("ragdoll_learner_run_samples",
+                            "Samples trained on in the whole run (continues after a resume)")),
+        samples_per_second(m.Gauge("ragdoll_learner_samples_per_second",
+                                   "Samples per second over the last PPO iteration")),
+        version(m.Gauge("ragdoll_policy_version", "Version of the newest policy")),
+        lag(m.Histogram("ragdoll_learner_policy_lag_versions",
+                        "Policy versions between a segment's behaviour policy and the learner's",
+                        {0, 1, 2, 3, 5, 10, 20})),
+        stale(m.Counter("ragdoll_learner_stale_segments_dropped_total",
+                        "Segments dropped for exceeding max_policy_lag")),
+        checkpoints(m.Counter("ragdoll_learner_checkpoints_total", "Checkpoints written")) {
+    for (const char* term : {"rotation", "velocity", "end_effector", "com", "root"}) {
+      terms.push_back(&m.Gauge("ragdoll_episode_reward_term",
+                               "Mean per-step value (0..1) of one imitation reward term, last "
+                               "PPO iteration",
+                               {{"term", term}}));
+    }
+    for (int r = 1; r <= static_cast<int>(wire::Rejection::kRunId); ++r) {
+      rejected.push_back(&m.Counter(
+          "ragdoll_learner_rejected_messages_total", "Messages dropped by the learner, by reason",
+          {{"reason", wire::RejectionName(static_cast<wire::Rejection>(r))}}));
+    }
+  }
+
+  prometheus::Gauge &episode_return, &normalized_return, &episode_length, &fall_ratio;
+  prometheus::Counter& episodes;
+  prometheus::Gauge &policy_loss, &value_loss, &entropy, &approx_kl, &clip_fraction,
+      &explained_variance, &learning_rate;
+  prometheus::Counter& updates;
+  prometheus::Histogram& update_seconds;
+  prometheus::Counter &skipped_steps, &samples;
+  prometheus::Gauge &run_samples, &samples_per_second, &version;
+  prometheus::Histogram& lag;
+  prometheus::Counter &stale, &checkpoints;
+  std::vector<prometheus::Gauge*> terms;
+  std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
+};
 
 }  // namespace
 
@@ -74,12 +145,19 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     std::fprintf(stderr, "learner: initialised weights from %s\n", path.c_str());
   }
 
+  MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
+  LearnerMetrics metrics(endpoint);
+  metrics.version.Set(static_cast<double>(learner.version()));
+  metrics.run_samples.Set(static_cast<double>(learner.samples()));
+  const int64_t start_stale = learner.stale_dropped();
+
   auto save = [&](const char* why) {
     char name[64];
     std::snprintf(name, sizeof(name), "checkpoint-%012lld.pt",
                   static_cast<long long>(learner.samples()));
     fs::path path = checkpoints / name;
     learner.Save(path.string(), config.config_text);
+    metrics.checkpoints.Increment();
     auto all = Checkpoints(checkpoints);
     for (size_t i = 0; i + trainer.keep_checkpoints < all.size(); ++i) fs::remove(all[i]);
     std::fprintf(stderr, "learner: %s checkpoint %s\n", why, path.c_str());
@@ -119,6 +197,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   int64_t rejected_total = 0;
   auto reject = [&](const wire::Verdict& v) {
     ++rejected[static_cast<int>(v.rejection)];
+    metrics.rejected[static_cast<int>(v.rejection) - 1]->Increment();
     if (rejected_total++ % 100 == 0) {
       std::fprintf(stderr, "learner: dropped a segment (%s): %s [%lld dropped so far]\n",
                    wire::RejectionName(v.rejection), v.detail.c_str(),
@@ -142,8 +221,15 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       if (v.ok()) v = wire::CheckSegment(segment, config.observation_size, config.action_size);
       if (!v.ok()) {
         reject(v);
-      } else if (learner.Add(segment) == Learner::Accept::kWrongLength) {
-        reject({wire::Rejection::kShape, "segment length differs from time_horizon"});
+      } else {
+        const int64_t lag = learner.version() - segment.policy_version();
+        Learner::Accept a = learner.Add(segment);
+        if (a == Learner::Accept::kWrongLength) {
+          reject({wire::Rejection::kShape, "segment length differs from time_horizon"});
+        } else if (a == Learner::Accept::kAccepted) {
+          metrics.lag.Observe(static_cast<double>(lag));
+        }
+        AdvanceTo(metrics.stale, static_cast<double>(learner.stale_dropped() - start_stale));
       }
     }
     if (learner.Ready()) {
@@ -165,6 +251,27 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
           static_cast<long long>(learner.version()), u.approx_kl, Duration(elapsed).c_str(),
           Duration(eta).c_str());
       std::fflush(stdout);
+      metrics.episode_return.Set(e.Mean(e.episode_return));
+      metrics.normalized_return.Set(e.Mean(e.normalized_return));
+      metrics.episode_length.Set(e.Mean(e.length));
+      metrics.fall_ratio.Set(e.Mean(e.falls));
+      metrics.episodes.Increment(static_cast<double>(e.episodes));
+      const double terms[] = {e.rotation, e.velocity, e.end_effector, e.com, e.root};
+      for (size_t i = 0; i < metrics.terms.size(); ++i) metrics.terms[i]->Set(e.Mean(terms[i]));
+      metrics.policy_loss.Set(u.policy_loss);
+      metrics.value_loss.Set(u.value_loss);
+      metrics.entropy.Set(u.entropy);
+      metrics.approx_kl.Set(u.approx_kl);
+      metrics.clip_fraction.Set(u.clip_fraction);
+      metrics.explained_variance.Set(u.explained_variance);
+      metrics.learning_rate.Set(u.learning_rate);
+      metrics.updates.Increment();
+      metrics.update_seconds.Observe(u.seconds);
+      metrics.skipped_steps.Increment(static_cast<double>(u.skipped_steps));
+      metrics.samples.Increment(static_cast<double>(u.samples));
+      metrics.run_samples.Set(static_cast<double>(learner.samples()));
+      metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
+      metrics.version.Set(static_cast<double>(learner.version()));
       csv << learner.iterations() << "," << learner.version() << "," << learner.samples() << ","
           << elapsed << "," << u.samples / std::max(iteration_s, 1e-9) << "," << e.episodes << ","
           << e.Mean(e.episode_return) << "," << e.Mean(e.normalized_return) << ","

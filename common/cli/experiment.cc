@@ -38,6 +38,7 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
   e.broker.actor_timeout = broker.Get<double>("actor_timeout", e.broker.actor_timeout);
   if (!(e.broker.actor_timeout > 0)) broker.Fail("actor_timeout", "must be positive");
   broker.Finish();
+  e.metrics = ReadMetricsConfig(root.Section("metrics"));
   root.Finish();
 
   if (port_base > 0) {
@@ -47,6 +48,9 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
     p.snapshot_port = port_base + 2;
     p.learner_port = port_base + 3;
     p.learner_snapshot_port = port_base + 4;
+    e.metrics.learner_port = port_base + 10;
+    e.metrics.broker_port = port_base + 11;
+    e.metrics.actor_port = port_base + 20;
   }
 
   // The effective configuration: the file with its paths made absolute, so that it still works

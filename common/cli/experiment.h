@@ -7,6 +7,7 @@
 #include "actor/actor_process.h"
 #include "actor/sim/env_config.h"
 #include "broker/broker.h"
+#include "common/metrics.h"
 #include "learner/trainer_config.h"
 
 namespace ragdoll::cli {
@@ -20,10 +21,12 @@ struct Experiment {
   broker::BrokerConfig broker;
   int actor_count = 0;       // actors.count; 0 = cores - 1, at least 1
   actor::ActorConfig actor;  // per-actor settings (id, run id and seed are set per process)
+  MetricsConfig metrics;
 };
 
 // Reads `path`; throws ConfigError naming file, line, key and a hint for any problem.
-// `port_base` > 0 moves the five broker ports to port_base .. port_base + 4.
+// `port_base` > 0 moves the five broker ports to port_base .. port_base + 4 and the metrics
+// ports to port_base + 10 (learner), + 11 (broker) and + 20 + i (actor i).
 Experiment ReadExperiment(const std::string& path, int port_base = 0);
 
 // actors.count resolved: cores - 1, at least 1, when not set.

@@ -59,21 +59,36 @@ int main(int argc, char** argv) {
   train_cmd->add_option("--actors", train.actors, "actor processes (default: cores - 1)");
   train_cmd->add_option("--port-base", train.port_base, "use ports PORT_BASE..PORT_BASE+4");
 
-  std::string config, run_id, run_dir, init_from;
-  int port_base = 0, index = 0;
+  // The distributed roles also read their options from RAGDOLL_* environment variables (for
+  // containers); a command-line option wins over its variable.
+  std::string config, run_id, run_dir, init_from, broker_host;
+  int port_base = 0, index = 0, metrics_port = -1;
   bool resume = false;
   auto* broker_cmd = app.add_subcommand("broker", "run the broker");
   auto* learner_cmd = app.add_subcommand("learner", "run the learner");
   auto* actor_cmd = app.add_subcommand("actor", "run one actor process");
   for (auto* cmd : {broker_cmd, learner_cmd, actor_cmd}) {
-    cmd->add_option("config", config, "experiment YAML")->required();
-    cmd->add_option("--run-id", run_id, "run name, shared by every role")->required();
-    cmd->add_option("--port-base", port_base, "use ports PORT_BASE..PORT_BASE+4");
+    cmd->add_option("config", config, "experiment YAML")->required()->envname("RAGDOLL_CONFIG");
+    cmd->add_option("--run-id", run_id, "run name, shared by every role")
+        ->required()
+        ->envname("RAGDOLL_RUN_ID");
+    cmd->add_option("--port-base", port_base, "use ports PORT_BASE..PORT_BASE+4")
+        ->envname("RAGDOLL_PORT_BASE");
+    cmd->add_option("--metrics-port", metrics_port,
+                    "Prometheus endpoint port (default: the config's metrics section)")
+        ->envname("RAGDOLL_METRICS_PORT");
   }
-  learner_cmd->add_option("--run-dir", run_dir, "run folder (default: runs/RUN_ID)");
-  learner_cmd->add_flag("--resume", resume, "continue from the newest checkpoint in the run");
+  for (auto* cmd : {learner_cmd, actor_cmd}) {
+    cmd->add_option("--broker-host", broker_host, "where the broker is (default: broker.host)")
+        ->envname("RAGDOLL_BROKER_HOST");
+  }
+  learner_cmd->add_option("--run-dir", run_dir, "run folder (default: runs/RUN_ID)")
+      ->envname("RAGDOLL_RUN_DIR");
+  learner_cmd->add_flag("--resume", resume, "continue from the newest checkpoint in the run")
+      ->envname("RAGDOLL_RESUME");
   learner_cmd->add_option("--init-from", init_from, "start from another run's weights");
-  actor_cmd->add_option("--index", index, "actor number, for its id and seed");
+  actor_cmd->add_option("--index", index, "actor number, for its id, seed and metrics port")
+      ->envname("RAGDOLL_ACTOR_INDEX");
 
   std::string eval_target, json_out;
   int episodes = 20;
@@ -114,9 +129,17 @@ int main(int argc, char** argv) {
     }
 
     cli::Experiment e = cli::ReadExperiment(config, port_base);
+    if (!broker_host.empty()) e.broker.endpoints.host = broker_host;
+    // The metrics port of this role: the option, else the config's (or none when disabled).
+    auto metrics_port_of = [&](int configured) {
+      if (metrics_port >= 0) return metrics_port;
+      return e.metrics.enabled ? configured : -1;
+    };
     if (*broker_cmd) {
+      MetricsEndpoint metrics("broker", e.metrics.bind, metrics_port_of(e.metrics.broker_port),
+                              run_id);
       zmq::context_t context(1);
-      broker::Broker b(context, e.broker, run_id);
+      broker::Broker b(context, e.broker, run_id, &metrics);
       std::fprintf(stderr, "broker: listening on %s (actors) and %s (learner)\n",
                    e.broker.endpoints.Bind(e.broker.endpoints.trajectory_port).c_str(),
                    e.broker.endpoints.Bind(e.broker.endpoints.learner_port).c_str());
@@ -128,6 +151,8 @@ int main(int argc, char** argv) {
       a.run_id = run_id;
       a.actor_id = Hostname() + "-actor-" + std::to_string(index);
       a.seed = e.actor.seed * 1000003ull + static_cast<uint64_t>(index) * 7919ull;
+      a.metrics_bind = e.metrics.bind;
+      a.metrics_port = metrics_port_of(e.metrics.actor_port + index);
       return actor::RunActor(e.environment, a, e.broker.endpoints, g_stop);
     }
     if (*learner_cmd) {
@@ -141,6 +166,8 @@ int main(int argc, char** argv) {
       l.action_size = probe.spec().action_size;
       l.resume = resume;
       l.init_from = init_from;
+      l.metrics_bind = e.metrics.bind;
+      l.metrics_port = metrics_port_of(e.metrics.learner_port);
       return learner::RunLearner(e.trainer, l, e.broker.endpoints, g_stop);
     }
   } catch (const ConfigError& error) {

@@ -24,7 +24,7 @@ class BrokerTest : public ::testing::Test {
       config_.endpoints.learner_port = base + 3;
       config_.endpoints.learner_snapshot_port = base + 4;
       try {
-        broker_ = std::make_unique<Broker>(context_, config_, "run");
+        broker_ = std::make_unique<Broker>(context_, config_, "run", &metrics_);
       } catch (const zmq::error_t&) {
         broker_.reset();
       }
@@ -50,6 +50,25 @@ class BrokerTest : public ::testing::Test {
     return false;
   }
 
+  // The value of one series of the broker's registry; -1 when absent.
+  double Metric(const std::string& name, const prometheus::Labels& labels = {}) {
+    for (const auto& family : metrics_.registry().Collect()) {
+      if (family.name != name) continue;
+      for (const auto& m : family.metric) {
+        bool match = true;
+        for (const auto& [key, value] : labels) {
+          bool found = false;
+          for (const auto& l : m.label) found |= l.name == key && l.value == value;
+          match &= found;
+        }
+        if (match)
+          return family.type == prometheus::MetricType::Counter ? m.counter.value : m.gauge.value;
+      }
+    }
+    return -1;
+  }
+
+  MetricsEndpoint metrics_{"broker", "127.0.0.1", -1, "run"};
   zmq::context_t context_{1};
   BrokerConfig config_;
   std::unique_ptr<Broker> broker_;
@@ -76,6 +95,19 @@ TEST_F(BrokerTest, ForwardsSegmentsUnchangedAndCountsBadMessages) {
   EXPECT_EQ(c.rejected[static_cast<int>(wire::Rejection::kRunId)], 1);
   EXPECT_EQ(c.rejected[static_cast<int>(wire::Rejection::kKind)], 1);
   EXPECT_EQ(c.Rejected(), 3);
+  // The Prometheus series say the same, by socket and reason.
+  EXPECT_EQ(Metric("ragdoll_broker_segments_forwarded_total"), 1);
+  EXPECT_EQ(Metric("ragdoll_broker_forwarded_bytes_total"), static_cast<double>(good.size()));
+  EXPECT_EQ(Metric("ragdoll_broker_messages_rejected_total",
+                   {{"socket", "trajectories"}, {"reason", "malformed"}}),
+            1);
+  EXPECT_EQ(Metric("ragdoll_broker_messages_rejected_total",
+                   {{"socket", "trajectories"}, {"reason", "run_id"}}),
+            1);
+  EXPECT_EQ(Metric("ragdoll_broker_messages_rejected_total",
+                   {{"socket", "control"}, {"reason", "malformed"}}),
+            0);
+  EXPECT_GT(Metric("ragdoll_broker_received_bytes_total"), static_cast<double>(good.size()));
 }
 
 TEST_F(BrokerTest, ServesTheNewestSnapshotToLateJoinersAndTracksActors) {

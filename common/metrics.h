@@ -1,0 +1,77 @@
+// Prometheus metrics: every process (learner, broker, each actor) serves its own registry over
+// HTTP at /metrics. Names carry the `ragdoll_` prefix and base units; every family carries the
+// run id as the `run` label.
+#pragma once
+
+#include <prometheus/counter.h>
+#include <prometheus/gauge.h>
+#include <prometheus/histogram.h>
+#include <prometheus/registry.h>
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace ragdoll {
+
+class ConfigSection;
+
+// The `metrics:` section of an experiment.
+struct MetricsConfig {
+  bool enabled = true;
+  std::string bind = "0.0.0.0";  // the interface every role's HTTP endpoint listens on
+  int learner_port = 9300;
+  int broker_port = 9301;
+  int actor_port = 9310;  // `ragdoll train` gives actor i the port actor_port + i
+};
+
+MetricsConfig ReadMetricsConfig(const ConfigSection& section);
+
+// One process's metrics: a registry and, when a port is given, the HTTP endpoint serving it in
+// Prometheus's text format (prometheus-cpp's serializer) from one background thread.
+//
+// Not prometheus-cpp's Exposer: its web server (civetweb) starts threads with a fixed 100 KB
+// stack, smaller than the static TLS of the libraries libtorch brings into every role's process
+// (OpenBLAS alone reserves 60 KB), so pthread_create fails with EINVAL and nothing is served.
+class MetricsEndpoint {
+ public:
+  // Serves at bind:port; port <= 0 serves nothing while the metrics are still kept. A port that
+  // cannot be bound is reported on stderr and training goes on without the endpoint: metrics
+  // must never stop a run.
+  MetricsEndpoint(const std::string& role, const std::string& bind, int port, std::string run_id);
+  ~MetricsEndpoint();
+  MetricsEndpoint(const MetricsEndpoint&) = delete;
+  MetricsEndpoint& operator=(const MetricsEndpoint&) = delete;
+
+  prometheus::Registry& registry() { return *registry_; }
+  // The port listened on; 0 when not serving.
+  int port() const { return listening_ >= 0 ? port_ : 0; }
+  const std::string& run_id() const { return run_id_; }
+
+  // Metric families with the run label; extra labels select one series.
+  prometheus::Gauge& Gauge(const std::string& name, const std::string& help,
+                           const prometheus::Labels& labels = {});
+  prometheus::Counter& Counter(const std::string& name, const std::string& help,
+                               const prometheus::Labels& labels = {});
+  prometheus::Histogram& Histogram(const std::string& name, const std::string& help,
+                                   const std::vector<double>& buckets,
+                                   const prometheus::Labels& labels = {});
+
+ private:
+  void Serve();
+  void Answer(int connection);
+
+  std::shared_ptr<prometheus::Registry> registry_;
+  std::string run_id_;
+  int port_ = 0;
+  int listening_ = -1;  // the listening socket
+  std::atomic<bool> stop_{false};
+  std::thread server_;
+};
+
+// Raises a Prometheus counter to a cumulative total kept elsewhere (never lowers it).
+void AdvanceTo(prometheus::Counter& counter, double total);
+
+}  // namespace ragdoll
