@@ -8,6 +8,8 @@ packages=(
   build-essential cmake ninja-build pkg-config git clang-format
   # simulation and learning
   libmujoco-dev libmujoco-samples libtorch-dev
+  # MuJoCo's CMake package looks for OpenGL even when nothing is rendered
+  libgl-dev libopengl-dev
   # libtorch links libblas.so.3; OpenBLAS registers itself as that alternative and is 5-10x
   # faster than the reference BLAS for the policy's matrix products (docs/environment measured).
   libopenblas0-openmp
@@ -21,7 +23,7 @@ packages=(
   prometheus curl jq
   # the container end-to-end test: Podman runs deploy/docker-compose.yml (no Docker engine
   # needed), on a Debian base image built locally with debootstrap
-  podman podman-compose runc netavark aardvark-dns debootstrap
+  podman podman-compose runc netavark aardvark-dns iptables debootstrap
 )
 
 missing=()

@@ -11,8 +11,8 @@ repo=$(cd "$(dirname "$0")/../.." && pwd)
 export CONTAINERS_CONF="$repo/tests/e2e/containers.conf"
 project=ragdoll-e2e
 work=$(mktemp -d /tmp/ragdoll-e2e.XXXXXX)
-mirror=${DEBIAN_MIRROR:-$(grep -hoE '^(URIs:|deb) +https?://[^ ]+/debian/?( |$)' \
-  /etc/apt/sources.list /etc/apt/sources.list.d/*.sources 2>/dev/null | head -n 1 | awk '{print $2}')}
+mirror=${DEBIAN_MIRROR:-$(cat /etc/apt/sources.list /etc/apt/sources.list.d/*.sources 2>/dev/null |
+  grep -oE '^(URIs:|deb) +https?://[^ ]+/debian/?( |$)' | head -n 1 | awk '{print $2}' || true)}
 mirror=${mirror:-http://deb.debian.org/debian}
 
 export RAGDOLL_IMAGE=localhost/ragdoll:e2e
@@ -96,10 +96,14 @@ log "stack healthy after ${healthy_s}s: $broker $learner ${actors[*]}"
 version_at_least() { local v; v=$(query "ragdoll_policy_version") || return 1; [ "${v%.*}" -ge "$1" ] 2> /dev/null; }
 wait_for 300 "policy version 5 in Prometheus" version_at_least 5
 wait_for 60 "4 targets up" bash -c "[ \"\$(curl -sf --get '$api/query' --data-urlencode 'query=sum(up)' | jq -r '.data.result[0].value[1] // 0')\" = 4 ]"
-reward=$(curl -sf --get "$api/query_range" --data-urlencode "query=ragdoll_episode_normalized_return" \
-  --data-urlencode "start=$(($(date +%s) - 120))" --data-urlencode "end=$(date +%s)" --data-urlencode "step=5")
-points=$(echo "$reward" | jq '.data.result[0].values | length')
-[ "${points:-0}" -ge 3 ] || fail "Prometheus holds too little of the reward series: $reward"
+reward_range() {
+  curl -sf --get "$api/query_range" --data-urlencode "query=ragdoll_episode_normalized_return" \
+    --data-urlencode "start=$(($(date +%s) - 300))" --data-urlencode "end=$(date +%s)" \
+    --data-urlencode "step=5"
+}
+reward_points_at_least() { [ "$(reward_range | jq '.data.result[0].values | length')" -ge "$1" ] 2> /dev/null; }
+wait_for 120 "6 scrapes of the reward series" reward_points_at_least 6
+reward=$(reward_range)
 log "Prometheus: ragdoll_episode_normalized_return $(echo "$reward" | jq -c '[.data.result[0].values[][1] | tonumber | . * 1000 | round / 1000]')"
 log "Prometheus: policy version $(query ragdoll_policy_version), trained samples $(query ragdoll_learner_run_samples)," \
   "$(query 'sum(rate(ragdoll_actor_samples_total[30s]))' | cut -c1-6) samples/s from $(query 'count(ragdoll_actor_samples_total)') actors," \
