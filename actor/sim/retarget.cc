@@ -1,0 +1,602 @@
+#include "actor/sim/retarget.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include "actor/sim/skeleton.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+using Mat3 = std::array<Vec3, 3>;  // rows
+
+Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+Vec3 Add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+Vec3 Scale(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
+double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double Norm(const Vec3& a) { return std::sqrt(Dot(a, a)); }
+Vec3 Cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+Vec3 Apply(const Mat3& m, const Vec3& v) { return {Dot(m[0], v), Dot(m[1], v), Dot(m[2], v)}; }
+Mat3 Transpose(const Mat3& m) {
+  Mat3 t;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) t[i][j] = m[j][i];
+  }
+  return t;
+}
+Mat3 Mul(const Mat3& a, const Mat3& b) {
+  Mat3 r{};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < 3; ++k) r[i][j] += a[i][k] * b[k][j];
+    }
+  }
+  return r;
+}
+// A rotation matrix's quaternion (Shepperd's method).
+Quat ToQuat(const Mat3& m) {
+  const double trace = m[0][0] + m[1][1] + m[2][2];
+  Quat q;
+  if (trace > 0) {
+    double s = std::sqrt(trace + 1.0) * 2;
+    q = {0.25 * s, (m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s};
+  } else if (m[0][0] > m[1][1] && m[0][0] > m[2][2]) {
+    double s = std::sqrt(1.0 + m[0][0] - m[1][1] - m[2][2]) * 2;
+    q = {(m[2][1] - m[1][2]) / s, 0.25 * s, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s};
+  } else if (m[1][1] > m[2][2]) {
+    double s = std::sqrt(1.0 + m[1][1] - m[0][0] - m[2][2]) * 2;
+    q = {(m[0][2] - m[2][0]) / s, (m[0][1] + m[1][0]) / s, 0.25 * s, (m[1][2] + m[2][1]) / s};
+  } else {
+    double s = std::sqrt(1.0 + m[2][2] - m[0][0] - m[1][1]) * 2;
+    q = {(m[1][0] - m[0][1]) / s, (m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, 0.25 * s};
+  }
+  return Normalized(q);
+}
+// The orthonormal frame whose first axis is `primary` and whose second is `secondary` made
+// perpendicular to it, as the columns of a matrix.
+Mat3 Frame(const Vec3& primary, const Vec3& secondary) {
+  Vec3 e1 = Scale(primary, 1 / Norm(primary));
+  Vec3 s = Sub(secondary, Scale(e1, Dot(secondary, e1)));
+  Vec3 e2 = Scale(s, 1 / Norm(s));
+  Vec3 e3 = Cross(e1, e2);
+  return Transpose(Mat3{e1, e2, e3});
+}
+// The coordinate axis nearest to v, signed.
+Vec3 Snap(const Vec3& v) {
+  int best = 0;
+  for (int i = 1; i < 3; ++i) {
+    if (std::abs(v[i]) > std::abs(v[best])) best = i;
+  }
+  Vec3 axis = {0, 0, 0};
+  axis[best] = v[best] > 0 ? 1 : -1;
+  return axis;
+}
+// Reflection across the sagittal (x-z) plane, for mirroring: y -> -y.
+Vec3 Mirror(const Vec3& v) { return {v[0], -v[1], v[2]}; }
+Quat Mirror(const Quat& q) { return {q[0], -q[1], q[2], -q[3]}; }
+
+const char* const kChannelNames[] = {"Xposition", "Yposition", "Zposition",
+                                     "Xrotation", "Yrotation", "Zrotation"};
+
+std::string Swapped(const std::string& part) {
+  if (part.rfind("left_", 0) == 0) return "right_" + part.substr(5);
+  if (part.rfind("right_", 0) == 0) return "left_" + part.substr(6);
+  return part;
+}
+
+// How a segment's twist is fixed when aligning the rest poses.
+enum class Twist { kHipsLeft, kShouldersLeft, kForward, kUp };
+
+// A segment of the character: the part (joint) that rotates it, the part at the far end of its
+// bone, its parent segment, its twist reference, and whether it turns on a single hinge (+y).
+struct Segment {
+  const char* part;
+  const char* bone_end;
+  int parent;
+  Twist twist;
+  bool hinge;
+};
+
+const Segment kSegments[] = {
+    {"root", "chest", -1, Twist::kHipsLeft, false},
+    {"chest", "neck", 0, Twist::kShouldersLeft, false},
+    {"neck", "head", 1, Twist::kForward, false},
+    {"right_hip", "right_knee", 0, Twist::kForward, false},
+    {"right_knee", "right_ankle", 3, Twist::kForward, true},
+    {"right_ankle", "right_toe", 4, Twist::kUp, false},
+    {"right_shoulder", "right_elbow", 1, Twist::kForward, false},
+    {"right_elbow", "right_wrist", 6, Twist::kForward, true},
+    {"left_hip", "left_knee", 0, Twist::kForward, false},
+    {"left_knee", "left_ankle", 8, Twist::kForward, true},
+    {"left_ankle", "left_toe", 9, Twist::kUp, false},
+    {"left_shoulder", "left_elbow", 1, Twist::kForward, false},
+    {"left_elbow", "left_wrist", 11, Twist::kForward, true},
+};
+constexpr int kSegmentCount = sizeof(kSegments) / sizeof(kSegments[0]);
+
+// Rest positions of the character's parts (world frame, the model's initial pose).
+std::map<std::string, Vec3> CharacterRest(const Character& character) {
+  const mjModel* m = character.model();
+  DataPtr d = character.MakeData();
+  mj_kinematics(m, d.get());
+  std::map<std::string, Vec3> rest;
+  auto body = [&](const std::string& name) {
+    int id = character.BodyId(name);
+    return Vec3{d->xpos[3 * id], d->xpos[3 * id + 1], d->xpos[3 * id + 2]};
+  };
+  for (const char* name : {"root", "chest", "neck", "right_hip", "right_knee", "right_ankle",
+                           "right_shoulder", "right_elbow", "right_wrist", "left_hip", "left_knee",
+                           "left_ankle", "left_shoulder", "left_elbow", "left_wrist"}) {
+    rest[name] = body(name);
+  }
+  // Points the model has no body for: the top of the head and the toes of a flat foot.
+  rest["head"] = Add(rest["neck"], {0, 0, 0.2});
+  rest["right_toe"] = Add(rest["right_ankle"], {0.15, 0, 0});
+  rest["left_toe"] = Add(rest["left_ankle"], {0.15, 0, 0});
+  return rest;
+}
+
+// A BVH joint by name; Mixamo-style namespaces ("mixamorig:Hips") match their bare names.
+int FindBvhJoint(const BvhMotion& bvh, const std::string& name) {
+  int exact = bvh.Find(name);
+  if (exact >= 0) return exact;
+  for (size_t i = 0; i < bvh.joints.size(); ++i) {
+    const std::string& n = bvh.joints[i].name;
+    if (bvh.joints[i].end_site) continue;
+    size_t colon = n.rfind(':');
+    std::string bare = colon == std::string::npos ? n : n.substr(colon + 1);
+    size_t name_colon = name.rfind(':');
+    std::string bare_name = name_colon == std::string::npos ? name : name.substr(name_colon + 1);
+    if (bare == bare_name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+// World rotations and positions of every BVH joint at a frame (frame < 0: the rest pose, all
+// channels zero).
+void BvhForwardKinematics(const BvhMotion& bvh, int frame, std::vector<Quat>* rotation,
+                          std::vector<Vec3>* position) {
+  const size_t n = bvh.joints.size();
+  rotation->assign(n, kIdentityQuat);
+  position->assign(n, {0, 0, 0});
+  for (size_t j = 0; j < n; ++j) {
+    const BvhJoint& joint = bvh.joints[j];
+    Quat local = frame < 0 ? kIdentityQuat : bvh.LocalRotation(frame, static_cast<int>(j));
+    Vec3 offset = frame < 0 ? joint.offset : bvh.LocalTranslation(frame, static_cast<int>(j));
+    if (joint.parent < 0) {
+      (*rotation)[j] = local;
+      (*position)[j] = offset;
+    } else {
+      (*rotation)[j] = Normalized(Multiply((*rotation)[joint.parent], local));
+      (*position)[j] = Add((*position)[joint.parent], Rotate((*rotation)[joint.parent], offset));
+    }
+  }
+}
+
+}  // namespace
+
+const std::vector<std::string>& MappingParts() {
+  static const std::vector<std::string> kParts = {
+      "root",        "chest",      "neck",           "head",          "right_hip",   "right_knee",
+      "right_ankle", "right_toe",  "right_shoulder", "right_elbow",   "right_wrist", "left_hip",
+      "left_knee",   "left_ankle", "left_toe",       "left_shoulder", "left_elbow",  "left_wrist"};
+  return kParts;
+}
+
+JointMapping ReadJointMapping(const std::string& preset_or_path) {
+  namespace fs = std::filesystem;
+  std::string path = preset_or_path;
+  const fs::path presets = fs::path(RAGDOLL_ASSETS_DIR) / "mappings";
+  if (path.find('/') == std::string::npos && fs::path(path).extension().empty()) {
+    path = (presets / (path + ".yaml")).string();
+    if (!fs::exists(path)) {
+      std::string names;
+      if (fs::is_directory(presets)) {
+        for (const auto& e : fs::directory_iterator(presets)) {
+          names += (names.empty() ? "" : ", ") + e.path().stem().string();
+        }
+      }
+      throw ConfigError("no joint mapping preset '" + preset_or_path + "' (presets: " + names +
+                        "; or give a YAML file)");
+    }
+  }
+  ConfigSection section = ConfigSection::FromFile(path);
+  JointMapping mapping;
+  mapping.origin = path;
+  for (const std::string& part : MappingParts()) {
+    std::string name = section.Get<std::string>(part, "");
+    if (!name.empty()) mapping.joints[part] = name;
+  }
+  section.Finish();
+  if (!mapping.joints.count("root")) section.Fail("root", "every mapping names the root joint");
+  return mapping;
+}
+
+double LowestPoint(const Character& character, const Pose& pose) {
+  const mjModel* m = character.model();
+  DataPtr d = character.MakeData();
+  character.PoseToQpos(pose, d->qpos);
+  mj_kinematics(m, d.get());
+  double lowest = INFINITY;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] == 0) continue;  // the floor and other world geometry
+    const double* p = d->geom_xpos + 3 * g;
+    const double* r = d->geom_xmat + 9 * g;  // row-major: column k is the geom's k-th axis
+    const double* s = m->geom_size + 3 * g;
+    switch (m->geom_type[g]) {
+      case mjGEOM_SPHERE:
+        lowest = std::min(lowest, p[2] - s[0]);
+        break;
+      case mjGEOM_CAPSULE:
+        lowest = std::min(lowest, p[2] - std::abs(r[8]) * s[1] - s[0]);
+        break;
+      case mjGEOM_BOX:
+        lowest = std::min(
+            lowest, p[2] - std::abs(r[6]) * s[0] - std::abs(r[7]) * s[1] - std::abs(r[8]) * s[2]);
+        break;
+      default:
+        lowest = std::min(lowest, p[2] - m->geom_rbound[g]);
+    }
+  }
+  return lowest;
+}
+
+MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
+                       const Character& character, const ImportOptions& options,
+                       std::vector<std::string>* warnings) {
+  auto fail = [&](const std::string& message) -> void {
+    throw ConfigError(bvh.origin + ": " + message);
+  };
+  // Which BVH joint drives each part (after mirroring, a left part reads the right joint).
+  std::map<std::string, int> joint;
+  auto root = mapping.joints.find("root");
+  if (root == mapping.joints.end() || FindBvhJoint(bvh, root->second) < 0) {
+    fail("joint '" + (root == mapping.joints.end() ? std::string() : root->second) +
+         "' (mapped to root in " + mapping.origin + ") is not in the file");
+  }
+  for (const auto& [part, name] : mapping.joints) {
+    int j = FindBvhJoint(bvh, name);
+    if (j < 0) {
+      // A part the file lacks stays at rest (or, for bone ends, the joint's child is used).
+      if (warnings) {
+        warnings->push_back("joint '" + name + "' (" + part + ") is not in the file; " + part +
+                            " stays at rest");
+      }
+      continue;
+    }
+    joint[options.mirror ? Swapped(part) : part] = j;
+  }
+  auto has = [&](const std::string& part) { return joint.count(part) > 0; };
+  if (!has("root")) fail("the mapping does not name the root joint");
+
+  // The BVH rest pose: where is up, where is forward, how big is it.
+  std::vector<Quat> rest_rotation;
+  std::vector<Vec3> rest_position;
+  BvhForwardKinematics(bvh, -1, &rest_rotation, &rest_position);
+  auto rest_of_joint = [&](int j) { return rest_position[j]; };
+  // The far end of a part's bone: the mapped part, else the joint's first child.
+  auto bone_end = [&](const std::string& part, const std::string& end) -> int {
+    if (has(end)) return joint[end];
+    if (!has(part)) return -1;
+    for (size_t c = 0; c < bvh.joints.size(); ++c) {
+      if (bvh.joints[c].parent == joint[part]) return static_cast<int>(c);
+    }
+    return -1;
+  };
+  Vec3 up_raw = {0, 0, 0};
+  for (const char* top : {"neck", "chest", "head"}) {
+    if (has(top)) {
+      up_raw = Sub(rest_of_joint(joint[top]), rest_of_joint(joint["root"]));
+      if (Norm(up_raw) > 0) break;
+    }
+  }
+  if (!(Norm(up_raw) > 0)) fail("cannot find the up direction: map chest, neck or head");
+  Vec3 left_raw = {0, 0, 0};
+  if (has("left_hip") && has("right_hip")) {
+    left_raw = Sub(rest_of_joint(joint["left_hip"]), rest_of_joint(joint["right_hip"]));
+  } else if (has("left_shoulder") && has("right_shoulder")) {
+    left_raw = Sub(rest_of_joint(joint["left_shoulder"]), rest_of_joint(joint["right_shoulder"]));
+  }
+  if (options.mirror) left_raw = Scale(left_raw, -1);
+  const Vec3 up = Snap(up_raw);
+  left_raw = Sub(left_raw, Scale(up, Dot(left_raw, up)));
+  if (!(Norm(left_raw) > 0)) fail("cannot find left and right: map both hips or both shoulders");
+  const Vec3 left = Snap(left_raw);
+  const Vec3 forward = Cross(left, up);
+  // BVH coordinates -> the character's (x forward, y left, z up).
+  const Mat3 to_character = {forward, left, up};
+  const Quat to_character_q = ToQuat(to_character);
+  const Quat from_character_q = Conjugate(to_character_q);
+
+  double scale = options.scale;
+  const std::map<std::string, Vec3> char_rest = CharacterRest(character);
+  if (!(scale > 0)) {
+    double bvh_leg = 0, char_leg = 0;
+    for (const char* side : {"right_", "left_"}) {
+      const std::string hip = std::string(side) + "hip", knee = std::string(side) + "knee",
+                        ankle = std::string(side) + "ankle";
+      if (has(hip) && has(knee) && has(ankle)) {
+        bvh_leg += Norm(Sub(rest_of_joint(joint[hip]), rest_of_joint(joint[knee]))) +
+                   Norm(Sub(rest_of_joint(joint[knee]), rest_of_joint(joint[ankle])));
+        char_leg += Norm(Sub(char_rest.at(hip), char_rest.at(knee))) +
+                    Norm(Sub(char_rest.at(knee), char_rest.at(ankle)));
+      }
+    }
+    if (!(bvh_leg > 0)) fail("cannot find the leg length to scale by: map hips, knees and ankles");
+    scale = char_leg / bvh_leg;
+  }
+
+  // A BVH rest position in the character's coordinates (mirrored if asked).
+  auto in_character = [&](const Vec3& v) {
+    Vec3 c = Apply(to_character, v);
+    return options.mirror ? Mirror(c) : c;
+  };
+  // Rest alignment of each segment: the rotation taking the character's rest segment frame
+  // (bone direction, twist reference) onto the BVH's.
+  std::vector<Quat> alignment(kSegmentCount, kIdentityQuat);
+  std::vector<bool> driven(kSegmentCount, false);
+  for (int s = 0; s < kSegmentCount; ++s) {
+    const Segment& seg = kSegments[s];
+    if (!has(seg.part)) continue;
+    driven[s] = true;
+    int end = bone_end(seg.part, seg.bone_end);
+    if (end < 0) continue;  // no bone to align: rest frames taken as equal
+    Vec3 bvh_bone = in_character(Sub(rest_of_joint(end), rest_of_joint(joint[seg.part])));
+    Vec3 char_bone = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
+    if (!(Norm(bvh_bone) > 1e-9)) continue;
+    Vec3 bvh_twist = {1, 0, 0}, char_twist = {1, 0, 0};
+    auto pair = [&](const char* l, const char* r) {
+      if (has(l) && has(r)) {
+        bvh_twist = in_character(Sub(rest_of_joint(joint[l]), rest_of_joint(joint[r])));
+        char_twist = Sub(char_rest.at(l), char_rest.at(r));
+      }
+    };
+    if (seg.twist == Twist::kHipsLeft) pair("left_hip", "right_hip");
+    if (seg.twist == Twist::kShouldersLeft) pair("left_shoulder", "right_shoulder");
+    if (seg.twist == Twist::kUp) bvh_twist = char_twist = {0, 0, 1};
+    auto perpendicular = [](const Vec3& bone, const Vec3& t) {
+      return Norm(Sub(t, Scale(bone, Dot(t, bone) / Dot(bone, bone))));
+    };
+    // A twist reference along the bone fixes nothing: use the other world axis.
+    if (perpendicular(bvh_bone, bvh_twist) < 0.3 * Norm(bvh_twist) ||
+        perpendicular(char_bone, char_twist) < 0.3 * Norm(char_twist)) {
+      bvh_twist = char_twist = seg.twist == Twist::kUp ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+    }
+    alignment[s] = ToQuat(Mul(Frame(bvh_bone, bvh_twist), Transpose(Frame(char_bone, char_twist))));
+  }
+
+  // Frames.
+  const int last = options.last_frame < 0 ? bvh.num_frames() - 1 : options.last_frame;
+  if (options.first_frame < 0 || last >= bvh.num_frames() || last - options.first_frame < 1) {
+    fail("frame range " + std::to_string(options.first_frame) + ".." + std::to_string(last) +
+         " needs at least two of the file's " + std::to_string(bvh.num_frames()) + " frames");
+  }
+  const auto& skeleton = Humanoid3dJoints();
+  std::vector<Pose> frames;
+  std::vector<Quat> rotation;
+  std::vector<Vec3> position;
+  for (int f = options.first_frame; f <= last; ++f) {
+    BvhForwardKinematics(bvh, f, &rotation, &position);
+    std::vector<Quat> global(kSegmentCount, kIdentityQuat);
+    Pose pose;
+    pose.joint_rotations.assign(skeleton.size(), kIdentityQuat);
+    for (int s = 0; s < kSegmentCount; ++s) {
+      const Segment& seg = kSegments[s];
+      const Quat parent = seg.parent < 0 ? kIdentityQuat : global[seg.parent];
+      if (!driven[s]) {
+        global[s] = parent;  // stays at rest relative to its parent
+        continue;
+      }
+      Quat world = Multiply(Multiply(to_character_q, rotation[joint[seg.part]]), from_character_q);
+      if (options.mirror) world = Mirror(world);
+      Quat g = Normalized(Multiply(world, alignment[s]));
+      if (s == 0) {
+        global[s] = g;
+        continue;
+      }
+      Quat local = Normalized(Multiply(Conjugate(parent), g));
+      if (seg.hinge) {  // keep only the turn about the hinge (y): swing-twist decomposition
+        double angle = 2 * std::atan2(local[2], local[0]);
+        local = AxisAngle({0, 1, 0}, angle);
+      }
+      global[s] = Normalized(Multiply(parent, local));
+      pose.joint_rotations[FindJoint(seg.part)] = local;
+    }
+    pose.root_rotation = global[0];
+    pose.root_position = Scale(in_character(position[joint["root"]]), scale);
+    frames.push_back(std::move(pose));
+  }
+
+  // Normalise: start at the origin facing +x, lowest point of the clip on the floor.
+  const Vec3 start = frames.front().root_position;
+  const Quat heading = AxisAngle({0, 0, 1}, -YawOf(frames.front().root_rotation));
+  for (Pose& p : frames) {
+    p.root_rotation = Normalized(Multiply(heading, p.root_rotation));
+    p.root_position = Rotate(heading, Sub(p.root_position, {start[0], start[1], 0}));
+  }
+  double lowest = INFINITY;
+  for (const Pose& p : frames) lowest = std::min(lowest, LowestPoint(character, p));
+  for (Pose& p : frames) p.root_position[2] -= lowest;
+
+  std::string name =
+      options.name.empty() ? std::filesystem::path(bvh.origin).stem().string() : options.name;
+  std::vector<double> durations(frames.size(), bvh.frame_time);
+  MotionClip clip(name, options.loop, durations, frames);
+  if (!(options.fps > 0)) return clip;
+  // Resample: whole intervals over the same duration (a loop still closes exactly).
+  const int intervals = std::max(1, static_cast<int>(std::lround(clip.duration() * options.fps)));
+  const double dt = clip.duration() / intervals;
+  std::vector<Pose> resampled;
+  for (int k = 0; k <= intervals; ++k)
+    resampled.push_back(clip.Sample(std::min(k * dt, clip.duration())));
+  std::vector<double> resampled_durations(resampled.size(), dt);
+  return MotionClip(name, options.loop, std::move(resampled_durations), std::move(resampled));
+}
+
+BvhMotion ClipToBvh(const MotionClip& clip, const Character& character, const JointMapping& naming,
+                    const ExportOptions& options) {
+  if (options.rotation_order.size() != 3) {
+    throw ConfigError("rotation order '" + options.rotation_order + "': three of X, Y, Z");
+  }
+  HingeAxes order;
+  order.count = 3;
+  std::vector<BvhChannel> rotation_channels;
+  for (int i = 0; i < 3; ++i) {
+    char c = static_cast<char>(std::toupper(static_cast<unsigned char>(options.rotation_order[i])));
+    if (c < 'X' || c > 'Z') {
+      throw ConfigError("rotation order '" + options.rotation_order + "': three of X, Y, Z");
+    }
+    order.axis[i] = c - 'X';
+    order.sign[i] = 1;
+    rotation_channels.push_back(
+        static_cast<BvhChannel>(static_cast<int>(BvhChannel::kXrotation) + (c - 'X')));
+  }
+  if (order.axis[0] == order.axis[1] || order.axis[1] == order.axis[2] ||
+      order.axis[0] == order.axis[2]) {
+    throw ConfigError("rotation order '" + options.rotation_order + "': each axis once");
+  }
+  for (int f = 1; f + 1 < clip.num_frames(); ++f) {
+    if (std::abs(clip.frame_duration(f) - clip.frame_duration(0)) > 1e-6) {
+      throw ConfigError("clip '" + clip.name() + "': BVH needs uniform frame times (frame " +
+                        std::to_string(f) + " differs)");
+    }
+  }
+  // Character coordinates -> BVH: Y-up puts forward on +z, left on +x, up on +y.
+  const Mat3 to_bvh = options.y_up ? Mat3{Vec3{0, 1, 0}, Vec3{0, 0, 1}, Vec3{1, 0, 0}}
+                                   : Mat3{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
+  const Quat to_bvh_q = ToQuat(to_bvh);
+  auto rotation_in_bvh = [&](const Quat& q) {
+    return Normalized(Multiply(Multiply(to_bvh_q, q), Conjugate(to_bvh_q)));
+  };
+  auto name_of = [&](const std::string& part) {
+    auto it = naming.joints.find(part);
+    return it == naming.joints.end() ? part : it->second;
+  };
+  std::map<std::string, Vec3> rest = CharacterRest(character);
+  rest["head_top"] = Add(rest["head"], {0, 0, 0.1});
+  for (const char* side : {"right_", "left_"}) {
+    const std::string s = side;
+    rest[s + "fingers"] = Add(rest[s + "wrist"], {0, 0, -0.08});
+    rest[s + "toe_tip"] = Add(rest[s + "toe"], {0.05, 0, 0});
+  }
+  BvhMotion bvh;
+  bvh.origin = clip.name() + ".bvh";
+  bvh.frame_time = clip.frame_duration(0);
+  std::map<std::string, int> index;
+  std::vector<std::string> part_of;  // per BVH joint
+  auto add = [&](const std::string& part, const std::string& parent, bool end_site) {
+    BvhJoint j;
+    j.end_site = end_site;
+    j.name = end_site ? name_of(parent) + "_end" : name_of(part);
+    j.parent = parent.empty() ? -1 : index.at(parent);
+    if (!parent.empty()) {
+      j.offset = Scale(Apply(to_bvh, Sub(rest.at(part), rest.at(parent))), options.units_per_metre);
+    }
+    j.first_channel = bvh.channel_count;
+    if (!end_site) {
+      if (parent.empty()) {
+        j.channels = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition};
+      }
+      j.channels.insert(j.channels.end(), rotation_channels.begin(), rotation_channels.end());
+      bvh.channel_count += static_cast<int>(j.channels.size());
+      index[part] = static_cast<int>(bvh.joints.size());
+    }
+    bvh.joints.push_back(j);
+    part_of.push_back(part);
+  };
+  add("root", "", false);
+  // Head, hands and toes are joints (as in mocap files) that never turn, each with an end site.
+  add("chest", "root", false);
+  add("neck", "chest", false);
+  add("head", "neck", false);
+  add("head_top", "head", true);
+  for (const char* side : {"right_", "left_"}) {
+    const std::string s = side;
+    add(s + "shoulder", "chest", false);
+    add(s + "elbow", s + "shoulder", false);
+    add(s + "wrist", s + "elbow", false);
+    add(s + "fingers", s + "wrist", true);
+  }
+  for (const char* side : {"right_", "left_"}) {
+    const std::string s = side;
+    add(s + "hip", "root", false);
+    add(s + "knee", s + "hip", false);
+    add(s + "ankle", s + "knee", false);
+    add(s + "toe", s + "ankle", false);
+    add(s + "toe_tip", s + "toe", true);
+  }
+  constexpr double kDegrees = 180.0 / M_PI;
+  for (int f = 0; f < clip.num_frames(); ++f) {
+    const Pose& pose = clip.frame(f);
+    std::vector<double> values;
+    values.reserve(bvh.channel_count);
+    for (size_t ji = 0; ji < bvh.joints.size(); ++ji) {
+      const BvhJoint& j = bvh.joints[ji];
+      if (j.end_site) continue;
+      Quat local;
+      if (j.parent < 0) {
+        Vec3 p = Scale(Apply(to_bvh, pose.root_position), options.units_per_metre);
+        values.insert(values.end(), p.begin(), p.end());
+        local = pose.root_rotation;
+      } else {
+        const int skeleton_joint = FindJoint(part_of[ji]);
+        local = skeleton_joint < 0 ? kIdentityQuat : pose.joint_rotations[skeleton_joint];
+      }
+      double angles[3];
+      DecomposeHinges(order, rotation_in_bvh(local), angles);
+      for (double a : angles) values.push_back(a * kDegrees);
+    }
+    bvh.frames.push_back(std::move(values));
+  }
+  return bvh;
+}
+
+std::string FormatBvh(const BvhMotion& bvh) {
+  std::ostringstream out;
+  out.precision(6);
+  out << std::fixed;
+  out << "HIERARCHY\n";
+  // Children of each joint, in order.
+  std::vector<std::vector<int>> children(bvh.joints.size());
+  for (size_t j = 0; j < bvh.joints.size(); ++j) {
+    if (bvh.joints[j].parent >= 0) children[bvh.joints[j].parent].push_back(static_cast<int>(j));
+  }
+  auto write = [&](auto&& self, int j, int depth) -> void {
+    const BvhJoint& joint = bvh.joints[j];
+    const std::string indent(depth * 2, ' ');
+    if (joint.end_site) {
+      out << indent << "End Site\n";
+    } else {
+      out << indent << (joint.parent < 0 ? "ROOT " : "JOINT ") << joint.name << "\n";
+    }
+    out << indent << "{\n";
+    out << indent << "  OFFSET " << joint.offset[0] << " " << joint.offset[1] << " "
+        << joint.offset[2] << "\n";
+    if (!joint.end_site) {
+      out << indent << "  CHANNELS " << joint.channels.size();
+      for (BvhChannel c : joint.channels) out << " " << kChannelNames[static_cast<int>(c)];
+      out << "\n";
+    }
+    for (int c : children[j]) self(self, c, depth + 1);
+    out << indent << "}\n";
+  };
+  write(write, 0, 0);
+  out << "MOTION\nFrames: " << bvh.frames.size() << "\n";
+  out.precision(8);
+  out << "Frame Time: " << bvh.frame_time << "\n";
+  out.precision(6);
+  for (const auto& frame : bvh.frames) {
+    for (size_t i = 0; i < frame.size(); ++i) out << (i ? " " : "") << frame[i];
+    out << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace ragdoll::sim

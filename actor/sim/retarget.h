@@ -1,0 +1,68 @@
+// Retargeting BVH motion onto the project's character, and exporting clips as BVH.
+//
+// Import works on bone directions and rotations, not on joint names alone: each character
+// segment (pelvis, chest, neck, thighs, shins, feet, upper arms, forearms) is driven by one BVH
+// joint named in a mapping file. The rest poses of the two skeletons are aligned once per
+// segment (bone direction plus a twist reference), so a T-posed mocap skeleton drives the
+// arms-down character correctly; every frame, a segment's world rotation is the BVH joint's world
+// rotation composed with that alignment. BVH joints the character lacks (extra spine, clavicle,
+// neck joints) are folded in because world rotations include every joint above them; parts the
+// mapping leaves out stay at rest. The up axis, facing direction and units are found from the
+// BVH's rest pose (hips, spine, legs), so Y-up and Z-up files in centimetres or metres import
+// alike.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "actor/sim/bvh.h"
+#include "actor/sim/character.h"
+#include "actor/sim/motion_clip.h"
+
+namespace ragdoll::sim {
+
+// Character parts a mapping names, e.g. "left_knee: LeftLeg".
+const std::vector<std::string>& MappingParts();
+
+struct JointMapping {
+  std::string origin;                         // file it came from
+  std::map<std::string, std::string> joints;  // part -> BVH joint name
+};
+
+// A preset (a file name in assets/mappings/ without .yaml: "cmu", "mixamo", "ragdoll") or a
+// YAML file of `part: BvhJointName` lines. Throws ConfigError naming the file, line and key.
+JointMapping ReadJointMapping(const std::string& preset_or_path);
+
+struct ImportOptions {
+  std::string name;      // clip name (default: the file's stem)
+  int first_frame = 0;   // trim: first BVH frame used
+  int last_frame = -1;   // trim: last BVH frame used; -1 = the last
+  double fps = 0;        // resample to this frame rate; 0 keeps the file's
+  bool mirror = false;   // swap left and right
+  bool loop = false;     // mark the clip as looping (its last frame should close the cycle)
+  double scale = 0;      // metres per BVH unit; 0 = from leg length
+};
+
+// Throws ConfigError naming the BVH file and the problem (no root joint, an unusable rest pose,
+// a bad frame range). Mapped joints the file lacks are reported in `warnings` and stay at rest.
+MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
+                       const Character& character, const ImportOptions& options,
+                       std::vector<std::string>* warnings = nullptr);
+
+struct ExportOptions {
+  std::string rotation_order = "ZXY";  // channel order of every joint's rotation
+  double units_per_metre = 1;          // 100 writes centimetres
+  bool y_up = false;                   // Y-up (most tools) instead of the project's Z-up
+};
+
+// The clip on the character's skeleton as BVH, joints named by `naming` (e.g. the CMU preset),
+// one frame per clip key frame (the clip's own frame times must be uniform).
+BvhMotion ClipToBvh(const MotionClip& clip, const Character& character,
+                    const JointMapping& naming, const ExportOptions& options);
+std::string FormatBvh(const BvhMotion& bvh);
+
+// The lowest point of the character's geometry for a pose (metres above the floor).
+double LowestPoint(const Character& character, const Pose& pose);
+
+}  // namespace ragdoll::sim
