@@ -2,6 +2,7 @@
 //   ragdoll train CONFIG         broker + learner + actors on this machine
 //   ragdoll broker|learner|actor CONFIG   one role, for distributed runs
 //   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out
+//   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
 #include <signal.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -17,6 +18,7 @@
 #include "broker/broker.h"
 #include "common/cli/experiment.h"
 #include "common/cli/launcher.h"
+#include "common/cli/motion_commands.h"
 #include "common/config_section.h"
 #include "learner/learner.h"
 #include "learner/learner_process.h"
@@ -100,10 +102,12 @@ int main(int argc, char** argv) {
   eval_cmd->add_option("--seed", eval_seed, "seed of the start phases")->capture_default_str();
   eval_cmd->add_option("--json", json_out, "also write the result to this file");
 
+  std::function<int()> motion = cli::AddMotionCommands(app);
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {
     if (*train_cmd) return cli::RunTrain(train, g_stop);
+    if (int code = motion(); code >= 0) return code;
 
     if (*eval_cmd) {
       std::string checkpoint = learner::FindCheckpoint(eval_target);

@@ -1,0 +1,140 @@
+#include "common/cli/motion_commands.h"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include "actor/sim/bvh.h"
+#include "actor/sim/clip_report.h"
+#include "actor/sim/motion_io.h"
+#include "actor/sim/retarget.h"
+
+namespace ragdoll::cli {
+namespace {
+
+struct MotionOptions {
+  std::string input, output, mapping = "cmu", naming = "ragdoll", order = "ZXY", units = "m",
+                             up = "y", character, json;
+  sim::ImportOptions import;
+  bool inspect_after = true;
+};
+
+std::string CharacterPath(const std::string& given) {
+  return given.empty() ? std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml" : given;
+}
+
+int Import(const MotionOptions& o) {
+  using Clock = std::chrono::steady_clock;
+  auto t0 = Clock::now();
+  sim::BvhMotion bvh = sim::LoadBvh(o.input);
+  auto t1 = Clock::now();
+  auto character = sim::Character::Load(CharacterPath(o.character));
+  std::vector<std::string> warnings;
+  sim::MotionClip clip =
+      sim::RetargetBvh(bvh, sim::ReadJointMapping(o.mapping), *character, o.import, &warnings);
+  auto t2 = Clock::now();
+  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  sim::SaveClip(clip,
+                "imported from " + std::filesystem::path(o.input).filename().string() +
+                    " with mapping " + o.mapping,
+                o.output);
+  std::fprintf(stderr,
+               "%s: %d frames at %.1f frames/s, %zu joints -> %s: %d frames, %.3f s "
+               "(parse %.0f ms, retarget %.0f ms)\n",
+               o.input.c_str(), bvh.num_frames(), 1 / bvh.frame_time, bvh.joints.size(),
+               o.output.c_str(), clip.num_frames(), clip.duration(),
+               std::chrono::duration<double, std::milli>(t1 - t0).count(),
+               std::chrono::duration<double, std::milli>(t2 - t1).count());
+  if (o.inspect_after) std::cout << sim::InspectClip(clip, *character).ToText();
+  return 0;
+}
+
+int Export(const MotionOptions& o) {
+  auto character = sim::Character::Load(CharacterPath(o.character));
+  sim::MotionClip clip = sim::LoadMotion(o.input);
+  sim::ExportOptions e;
+  e.rotation_order = o.order;
+  e.units_per_metre = o.units == "cm" ? 100 : 1;
+  e.y_up = o.up == "y";
+  std::string text =
+      sim::FormatBvh(sim::ClipToBvh(clip, *character, sim::ReadJointMapping(o.naming), e));
+  std::ofstream out(o.output);
+  out << text;
+  if (!out) throw std::runtime_error(o.output + ": cannot write");
+  std::fprintf(stderr, "%s: %d frames -> %s (%s-up, %s, %s order, %s names)\n", o.input.c_str(),
+               clip.num_frames(), o.output.c_str(), o.up.c_str(), o.units.c_str(), o.order.c_str(),
+               o.naming.c_str());
+  return 0;
+}
+
+int Inspect(const MotionOptions& o) {
+  auto character = sim::Character::Load(CharacterPath(o.character));
+  sim::MotionClip clip = sim::LoadMotion(o.input);
+  sim::ClipReport report = sim::InspectClip(clip, *character);
+  std::cout << report.ToText();
+  if (!o.json.empty()) std::ofstream(o.json) << report.ToJson() << "\n";
+  return 0;
+}
+
+}  // namespace
+
+std::function<int()> AddMotionCommands(CLI::App& app) {
+  auto o = std::make_shared<MotionOptions>();
+  auto* motion = app.add_subcommand("motion", "import, export and inspect motion clips");
+  motion->require_subcommand(1);
+
+  auto* import = motion->add_subcommand("import", "retarget a BVH file onto the character");
+  import->add_option("bvh", o->input, "BVH file")->required()->check(CLI::ExistingFile);
+  import
+      ->add_option("--map", o->mapping,
+                   "joint mapping: a preset (cmu, mixamo, ragdoll) or a YAML file")
+      ->capture_default_str();
+  import->add_option("--out", o->output, "clip to write (.json)")->required();
+  import->add_option("--name", o->import.name, "clip name (default: the file's stem)");
+  import->add_option("--first", o->import.first_frame, "first frame to use")
+      ->check(CLI::NonNegativeNumber);
+  import->add_option("--last", o->import.last_frame, "last frame to use (default: the last)");
+  import->add_option("--fps", o->import.fps, "resample to this frame rate")
+      ->check(CLI::PositiveNumber);
+  import->add_flag("--mirror", o->import.mirror, "swap left and right");
+  import->add_flag("--loop", o->import.loop, "mark the clip as looping");
+  import
+      ->add_option("--scale", o->import.scale, "metres per BVH unit (default: from the leg length)")
+      ->check(CLI::PositiveNumber);
+  import->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+
+  auto* exporter = motion->add_subcommand("export", "write a clip as BVH (for Blender, Maya...)");
+  exporter->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  exporter->add_option("--out", o->output, "BVH file to write")->required();
+  exporter->add_option("--naming", o->naming, "joint names: a mapping preset or YAML file")
+      ->capture_default_str();
+  exporter->add_option("--order", o->order, "rotation channel order")->capture_default_str();
+  exporter->add_option("--units", o->units, "m or cm")
+      ->check(CLI::IsMember({"m", "cm"}))
+      ->capture_default_str();
+  exporter->add_option("--up", o->up, "y or z")
+      ->check(CLI::IsMember({"y", "z"}))
+      ->capture_default_str();
+  exporter->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+
+  auto* inspect = motion->add_subcommand("inspect", "timing, travel, foot contact, problems");
+  inspect->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  inspect->add_option("--json", o->json, "also write the report as JSON");
+  inspect->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+
+  return [=]() -> int {
+    if (!*motion) return -1;
+    if (*import) return Import(*o);
+    if (*exporter) return Export(*o);
+    return Inspect(*o);
+  };
+}
+
+}  // namespace ragdoll::cli
