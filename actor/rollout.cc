@@ -99,6 +99,16 @@ sim::EpisodeStats RolloutWorker::RunEpisode(bool deterministic) {
   return stats;
 }
 
+sim::StepResult RolloutWorker::StepFirst(bool deterministic) {
+  std::vector<float> actions, log_probs;
+  Act(deterministic, &actions, &log_probs);
+  return envs_[0]->Step(actions.data(), observations_.data());
+}
+
+void RolloutWorker::ResetFirst(double phase) {
+  envs_[0]->ResetAtPhase(phase, observations_.data());
+}
+
 std::vector<v1::TrajectorySegment> RolloutWorker::Collect() {
   if (!has_policy()) throw std::logic_error("Collect() before SetPolicy()");
   const int K = environments(), O = spec().observation_size, A = spec().action_size;

@@ -38,6 +38,11 @@ class RolloutWorker {
 
   // Runs environment 0 from a reset to the end of one episode (for evaluation).
   sim::EpisodeStats RunEpisode(bool deterministic);
+  // For tools that watch or disturb one episode (rendering, pushes): environment k, one control
+  // step of environment 0 with the policy, and a restart of environment 0 at a clip phase.
+  sim::ImitationEnv& environment(int k) { return *envs_[k]; }
+  sim::StepResult StepFirst(bool deterministic);
+  void ResetFirst(double phase);
 
   int64_t samples() const { return samples_; }
 

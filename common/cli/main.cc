@@ -2,6 +2,7 @@
 //   ragdoll train CONFIG         broker + learner + actors on this machine
 //   ragdoll broker|learner|actor CONFIG   one role, for distributed runs
 //   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out
+//   ragdoll render [RUN_OR_CHECKPOINT] --clip CLIP --out FILE.mp4|.gif|.png
 //   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
 #include <signal.h>
 #include <unistd.h>
@@ -19,6 +20,8 @@
 #include "common/cli/experiment.h"
 #include "common/cli/launcher.h"
 #include "common/cli/motion_commands.h"
+#include "common/cli/render_command.h"
+#include "common/cli/trained_policy.h"
 #include "common/config_section.h"
 #include "learner/learner.h"
 #include "learner/learner_process.h"
@@ -103,30 +106,25 @@ int main(int argc, char** argv) {
   eval_cmd->add_option("--json", json_out, "also write the result to this file");
 
   std::function<int()> motion = cli::AddMotionCommands(app);
+  std::function<int()> render = cli::AddRenderCommand(app, argc, argv);
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {
     if (*train_cmd) return cli::RunTrain(train, g_stop);
     if (int code = motion(); code >= 0) return code;
+    if (int code = render(); code >= 0) return code;
 
     if (*eval_cmd) {
-      std::string checkpoint = learner::FindCheckpoint(eval_target);
-      if (checkpoint.empty()) throw ConfigError(eval_target + ": no checkpoint found");
-      // checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml
-      auto run = std::filesystem::path(checkpoint).parent_path().parent_path();
-      cli::Experiment e = cli::ReadExperiment((run / "config.yaml").string());
-      sim::EnvConfig env = e.environment;
-      actor::RolloutWorker probe(env, 1, 1, 0, "eval");
-      learner::Learner l(e.trainer, probe.spec().observation_size, probe.spec().action_size);
-      l.Load(checkpoint);
-      actor::EvaluationResult r = actor::Evaluate(env, l.Snapshot(), episodes, eval_seed);
+      cli::TrainedPolicy policy = cli::LoadTrainedPolicy(eval_target);
+      sim::EnvConfig env = policy.experiment.environment;
+      actor::EvaluationResult r = actor::Evaluate(env, policy.snapshot, episodes, eval_seed);
       std::string json = r.ToJson();
       std::cout << json << "\n";
       std::fprintf(stderr,
                    "%s (policy v%lld, %lld samples): normalised return %.3f, length %.1f steps, "
                    "fall rate %.2f over %d episodes\n",
-                   checkpoint.c_str(), static_cast<long long>(l.version()),
-                   static_cast<long long>(l.samples()), r.normalized_return, r.episode_length,
+                   policy.checkpoint.c_str(), static_cast<long long>(policy.version),
+                   static_cast<long long>(policy.samples), r.normalized_return, r.episode_length,
                    r.fall_rate, r.episodes);
       if (!json_out.empty()) std::ofstream(json_out) << json << "\n";
       return 0;

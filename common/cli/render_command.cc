@@ -1,0 +1,176 @@
+#include "common/cli/render_command.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+
+#include "actor/render/renderer.h"
+#include "actor/render/video.h"
+#include "actor/rollout.h"
+#include "actor/sim/motion_io.h"
+#include "common/cli/trained_policy.h"
+#include "common/config_section.h"
+
+namespace ragdoll::cli {
+namespace {
+
+struct RenderOptions {
+  std::string target, clip, out;
+  double seconds = 0;  // 0: one clip cycle (at least 3 s) without a policy, 10 s with one
+  double phase = 0;
+  double time = -1;  // .png: the moment to show (default: the middle)
+  std::string ghost = "side";
+  render::View view;
+  uint64_t seed = 1;
+};
+
+// Runs this command again under xvfb-run when there is no display; returns only if it could not.
+void EnsureDisplay(int argc, char** argv) {
+  const char* display = std::getenv("DISPLAY");
+  if ((display && *display) || std::getenv("RAGDOLL_UNDER_XVFB")) return;
+  setenv("RAGDOLL_UNDER_XVFB", "1", 1);
+  char self[4096];
+  ssize_t n = readlink("/proc/self/exe", self, sizeof(self) - 1);
+  if (n <= 0) return;
+  self[n] = '\0';
+  std::vector<std::string> args = {"xvfb-run", "-a", "-s", "-screen 0 1920x1080x24", self};
+  for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
+  std::vector<char*> c;
+  for (auto& a : args) c.push_back(a.data());
+  c.push_back(nullptr);
+  execvp("xvfb-run", c.data());
+  std::fprintf(stderr, "ragdoll render: no DISPLAY and cannot run xvfb-run (install xvfb)\n");
+}
+
+std::string Caption(const std::string& clip, double t, const std::string& policy, double normalized,
+                    bool fell) {
+  char text[256];
+  std::snprintf(text, sizeof(text), "clip %s\ntime %.2f s\n%s%s", clip.c_str(), t, policy.c_str(),
+                fell ? "\nfell: restarted" : "");
+  std::string caption = text;
+  if (normalized >= 0) {
+    std::snprintf(text, sizeof(text), "\nnormalised return %.3f", normalized);
+    caption += text;
+  }
+  return caption;
+}
+
+int Render(const RenderOptions& o) {
+  using Clock = std::chrono::steady_clock;
+  const bool with_policy = !o.target.empty();
+  std::unique_ptr<TrainedPolicy> policy;
+  sim::EnvConfig env;
+  if (with_policy) {
+    policy = std::make_unique<TrainedPolicy>(LoadTrainedPolicy(o.target));
+    env = policy->experiment.environment;
+    if (!o.clip.empty()) env.motion = o.clip;
+  } else {
+    if (o.clip.empty()) throw ConfigError("render: give a run (or checkpoint), --clip, or both");
+    env.motion = o.clip;
+    env.character = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
+  }
+  auto clip = sim::LoadMotion(env.motion);
+  auto character = sim::Character::Load(env.character, env.physics_dt());
+  const double fps = env.control_frequency;
+  const double seconds =
+      o.seconds > 0 ? o.seconds : (with_policy ? 10.0 : std::max(3.0, clip.duration()));
+  const int steps = std::max(1, static_cast<int>(std::lround(seconds * fps)));
+
+  render::View view = o.view;
+  view.ghost_offset = o.ghost == "side" ? 1.0 : 0.0;
+  render::Renderer renderer(character->model(), view);
+  render::VideoWriter video(o.out, view.width, view.height, fps);
+  // A still shows one moment: the middle of the requested span unless --time says otherwise.
+  const int still_step = o.time >= 0 ? static_cast<int>(std::lround(o.time * fps)) : steps / 2;
+  const auto start = Clock::now();
+  int drawn = 0;
+  auto emit = [&](int step, const mjData& sim, const mjData* reference, const std::string& c) {
+    if (video.single_frame() && step != still_step) return;
+    renderer.Draw(sim, reference, c);
+    video.Write(renderer.pixels());
+    ++drawn;
+  };
+
+  if (!with_policy) {
+    // The reference alone: the clip's poses on the character, no physics.
+    sim::DataPtr d = character->MakeData();
+    for (int s = 0; s <= steps; ++s) {
+      const double t = s / fps;
+      character->PoseToQpos(clip.Sample(t), d->qpos);
+      mj_kinematics(character->model(), d.get());
+      emit(s, *d, nullptr, Caption(clip.name(), t, "reference only", -1, false));
+    }
+  } else {
+    actor::RolloutWorker worker(env, 1, 1, o.seed, "render");
+    worker.SetPolicy(policy->snapshot);
+    worker.ResetFirst(o.phase);
+    sim::ImitationEnv& e = worker.environment(0);
+    sim::DataPtr reference = character->MakeData();
+    std::vector<double> qvel(character->model()->nv);
+    const std::string label = "policy v" + std::to_string(policy->version);
+    bool fell = false;
+    auto draw = [&](int s) {
+      e.ReferenceState(e.time(), reference->qpos, qvel.data());
+      mj_kinematics(character->model(), reference.get());
+      const auto& ep = e.episode();
+      const double normalized =
+          ep.length > 0 ? ep.episode_return / (e.spec().max_reward_per_step * ep.length) : 1.0;
+      emit(s, e.data(), o.ghost == "none" ? nullptr : reference.get(),
+           Caption(clip.name(), e.time(), label, normalized, fell));
+    };
+    draw(0);
+    for (int s = 1; s <= steps; ++s) {
+      sim::StepResult r = worker.StepFirst(true);
+      if (r.terminated || r.truncated) {
+        fell = r.terminated;
+        std::fprintf(stderr, "render: episode %s at %.2f s, normalised return %.3f\n",
+                     r.terminated ? "ended (fell)" : "reached its time limit", e.time(),
+                     e.episode().normalized_return);
+        worker.ResetFirst(clip.Phase(e.time()));
+      }
+      draw(s);
+    }
+  }
+  video.Close();
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  std::fprintf(stderr, "render: %s: %d frame%s of %dx%d in %.1f s (%.1f frames/s)\n", o.out.c_str(),
+               drawn, drawn == 1 ? "" : "s", view.width, view.height, elapsed,
+               drawn / std::max(elapsed, 1e-9));
+  return 0;
+}
+
+}  // namespace
+
+std::function<int()> AddRenderCommand(CLI::App& app, int argc, char** argv) {
+  auto o = std::make_shared<RenderOptions>();
+  auto* cmd = app.add_subcommand(
+      "render", "video of a trained ragdoll beside its reference clip (or the clip alone)");
+  cmd->add_option("run_or_checkpoint", o->target, "runs/<id> or a checkpoint (omit: clip only)");
+  cmd->add_option("--clip", o->clip, "clip to follow (default: the run's)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--out", o->out, "FILE.mp4, FILE.gif or FILE.png")->required();
+  cmd->add_option("--seconds", o->seconds, "length (default: 10 s; clip only: one cycle)");
+  cmd->add_option("--phase", o->phase, "clip phase to start at (0..1)")->capture_default_str();
+  cmd->add_option("--time", o->time, ".png: the moment to show, seconds (default: the middle)");
+  cmd->add_option("--ghost", o->ghost, "reference drawn beside (side), overlaid, or none")
+      ->check(CLI::IsMember({"side", "overlay", "none"}))
+      ->capture_default_str();
+  cmd->add_option("--width", o->view.width)->capture_default_str()->check(CLI::Range(64, 3840));
+  cmd->add_option("--height", o->view.height)->capture_default_str()->check(CLI::Range(64, 2160));
+  cmd->add_option("--distance", o->view.distance, "camera distance, m")->capture_default_str();
+  cmd->add_option("--azimuth", o->view.azimuth, "camera azimuth, degrees")->capture_default_str();
+  cmd->add_option("--elevation", o->view.elevation, "camera elevation, degrees")
+      ->capture_default_str();
+  cmd->add_option("--seed", o->seed)->capture_default_str();
+  return [=]() -> int {
+    if (!*cmd) return -1;
+    EnsureDisplay(argc, argv);
+    return Render(*o);
+  };
+}
+
+}  // namespace ragdoll::cli

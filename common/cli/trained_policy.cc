@@ -1,0 +1,28 @@
+#include "common/cli/trained_policy.h"
+
+#include <filesystem>
+
+#include "actor/rollout.h"
+#include "common/config_section.h"
+#include "learner/learner.h"
+#include "learner/learner_process.h"
+
+namespace ragdoll::cli {
+
+TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
+  TrainedPolicy p;
+  p.checkpoint = learner::FindCheckpoint(run_or_checkpoint);
+  if (p.checkpoint.empty()) throw ConfigError(run_or_checkpoint + ": no checkpoint found");
+  // Checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml.
+  auto run = std::filesystem::path(p.checkpoint).parent_path().parent_path();
+  p.experiment = ReadExperiment((run / "config.yaml").string());
+  actor::RolloutWorker probe(p.experiment.environment, 1, 1, 0, "probe");
+  learner::Learner l(p.experiment.trainer, probe.spec().observation_size, probe.spec().action_size);
+  l.Load(p.checkpoint);
+  p.snapshot = l.Snapshot();
+  p.version = l.version();
+  p.samples = l.samples();
+  return p;
+}
+
+}  // namespace ragdoll::cli

@@ -1,0 +1,23 @@
+// A trained policy as the tools (eval, render) use it: the newest checkpoint of a run folder
+// (or a checkpoint file), the run's effective configuration, and the policy snapshot.
+#pragma once
+
+#include <string>
+
+#include "common/cli/experiment.h"
+#include "common/wire.h"
+
+namespace ragdoll::cli {
+
+struct TrainedPolicy {
+  std::string checkpoint;
+  Experiment experiment;  // the run's config.yaml
+  v1::PolicySnapshot snapshot;
+  int64_t version = 0;
+  int64_t samples = 0;
+};
+
+// Throws ConfigError when there is no checkpoint or it does not fit the run's config.
+TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint);
+
+}  // namespace ragdoll::cli
