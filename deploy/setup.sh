@@ -19,6 +19,8 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # rendering videos headless: GLFW + Mesa under Xvfb, frames encoded by ffmpeg
+  libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg
   # integration tests: a real Prometheus server, queried over HTTP from the shell
   prometheus curl jq
   # the container end-to-end test: Podman runs deploy/docker-compose.yml (no Docker engine
