@@ -144,6 +144,14 @@ void ImitationEnv::ReferenceAction(float* action) const {
   }
 }
 
+void ImitationEnv::SetExternalForce(int body, const Vec3& force) {
+  double* f = data_->xfrc_applied + 6 * body;
+  for (int i = 0; i < 3; ++i) {
+    f[i] = force[i];
+    f[3 + i] = 0;
+  }
+}
+
 void ImitationEnv::SetState(const double* qpos, const double* qvel) {
   const mjModel* m = character_->model();
   std::copy(qpos, qpos + m->nq, data_->qpos);

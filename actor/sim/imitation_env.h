@@ -81,6 +81,9 @@ class ImitationEnv {
   // "PD tracking, no learning" baseline.
   void ReferenceAction(float* action) const;
 
+  // An external force (world frame, newtons) on a body's centre of mass, applied in every
+  // physics step until changed; a reset clears it. For perturbation trials.
+  void SetExternalForce(int body, const Vec3& force);
   // Replaces the simulated state (for tests and perturbation tools); keeps the episode going.
   void SetState(const double* qpos, const double* qvel);
   const mjData& data() const { return *data_; }

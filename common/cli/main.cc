@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 
 #include "actor/evaluation.h"
 #include "actor/rollout.h"
@@ -104,6 +105,23 @@ int main(int argc, char** argv) {
   eval_cmd->add_option("--episodes", episodes, "episodes to run")->capture_default_str();
   eval_cmd->add_option("--seed", eval_seed, "seed of the start phases")->capture_default_str();
   eval_cmd->add_option("--json", json_out, "also write the result to this file");
+  bool pushes = false;
+  actor::PushConfig push;
+  eval_cmd->add_flag("--pushes", pushes, "also run push trials (robustness)");
+  eval_cmd->add_option("--push-impulses", push.impulses, "impulses to try, N s")
+      ->delimiter(',')
+      ->capture_default_str();
+  eval_cmd->add_option("--push-trials", push.trials, "trials per impulse")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  eval_cmd->add_option("--push-body", push.body, "body pushed")->capture_default_str();
+  eval_cmd->add_option("--push-duration", push.duration, "seconds the push lasts")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  eval_cmd
+      ->add_option("--push-direction", push.direction,
+                   "random, or forward/backward/left/right of the heading")
+      ->capture_default_str();
 
   std::function<int()> motion = cli::AddMotionCommands(app);
   std::function<int()> render = cli::AddRenderCommand(app, argc, argv);
@@ -118,7 +136,12 @@ int main(int argc, char** argv) {
       cli::TrainedPolicy policy = cli::LoadTrainedPolicy(eval_target);
       sim::EnvConfig env = policy.experiment.environment;
       actor::EvaluationResult r = actor::Evaluate(env, policy.snapshot, episodes, eval_seed);
-      std::string json = r.ToJson();
+      std::unique_ptr<actor::RobustnessResult> robustness;
+      if (pushes) {
+        robustness = std::make_unique<actor::RobustnessResult>(
+            actor::EvaluatePushes(env, policy.snapshot, push, eval_seed));
+      }
+      std::string json = r.ToJson(robustness.get());
       std::cout << json << "\n";
       std::fprintf(stderr,
                    "%s (policy v%lld, %lld samples): normalised return %.3f, length %.1f steps, "
@@ -126,6 +149,7 @@ int main(int argc, char** argv) {
                    policy.checkpoint.c_str(), static_cast<long long>(policy.version),
                    static_cast<long long>(policy.samples), r.normalized_return, r.episode_length,
                    r.fall_rate, r.episodes);
+      if (robustness) std::fprintf(stderr, "%s", robustness->ToTable().c_str());
       if (!json_out.empty()) std::ofstream(json_out) << json << "\n";
       return 0;
     }
