@@ -50,7 +50,15 @@ start=$(date +%s)
 wait_for 60 "Prometheus to answer" curl -sf "$api/status/buildinfo" -o /dev/null
 wait_for 90 "6 policy versions in Prometheus" \
   bash -c "v=\$(curl -sf --get '$api/query' --data-urlencode 'query=ragdoll_policy_version{run=\"$run\"}' | jq -r '.data.result[0].value[1] // 0'); [ \"\${v%.*}\" -ge 6 ]"
-sleep 3  # a few more scrapes of the newest values
+# At least 10 scrapes (1 s apart) of the reward series, however fast training runs.
+reward_points() {
+  curl -sf --get "$api/query_range" \
+    --data-urlencode "query=ragdoll_episode_normalized_return{run=\"$run\"}" \
+    --data-urlencode "start=$start" --data-urlencode "end=$(date +%s)" --data-urlencode "step=1" |
+    jq '.data.result[0].values | length'
+}
+reward_points_at_least() { [ "$(reward_points)" -ge "$1" ] 2> /dev/null; }
+wait_for 60 "10 scrapes of the reward series" reward_points_at_least 10
 
 # Every target is up: the learner, the broker and both actors.
 up=$(value "sum(up)")
