@@ -35,13 +35,13 @@ struct JointMapping {
 JointMapping ReadJointMapping(const std::string& preset_or_path);
 
 struct ImportOptions {
-  std::string name;      // clip name (default: the file's stem)
-  int first_frame = 0;   // trim: first BVH frame used
-  int last_frame = -1;   // trim: last BVH frame used; -1 = the last
-  double fps = 0;        // resample to this frame rate; 0 keeps the file's
-  bool mirror = false;   // swap left and right
-  bool loop = false;     // mark the clip as looping (its last frame should close the cycle)
-  double scale = 0;      // metres per BVH unit; 0 = from leg length
+  std::string name;     // clip name (default: the file's stem)
+  int first_frame = 0;  // trim: first BVH frame used
+  int last_frame = -1;  // trim: last BVH frame used; -1 = the last
+  double fps = 0;       // resample to this frame rate; 0 keeps the file's
+  bool mirror = false;  // swap left and right
+  bool loop = false;    // mark the clip as looping (its last frame should close the cycle)
+  double scale = 0;     // metres per BVH unit; 0 = from leg length
 };
 
 // Throws ConfigError naming the BVH file and the problem (no root joint, an unusable rest pose,
@@ -58,8 +58,8 @@ struct ExportOptions {
 
 // The clip on the character's skeleton as BVH, joints named by `naming` (e.g. the CMU preset),
 // one frame per clip key frame (the clip's own frame times must be uniform).
-BvhMotion ClipToBvh(const MotionClip& clip, const Character& character,
-                    const JointMapping& naming, const ExportOptions& options);
+BvhMotion ClipToBvh(const MotionClip& clip, const Character& character, const JointMapping& naming,
+                    const ExportOptions& options);
 std::string FormatBvh(const BvhMotion& bvh);
 
 // The lowest point of the character's geometry for a pose (metres above the floor).
