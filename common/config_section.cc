@@ -71,6 +71,12 @@ std::vector<std::string> ConfigSection::GetStringList(
   return out;
 }
 
+int ConfigSection::GetPort(const std::string& key, int fallback) const {
+  int port = Get<int>(key, fallback);
+  if (port < 1 || port > 65535) Fail(key, "must be a TCP port (1-65535)");
+  return port;
+}
+
 std::string ConfigSection::GetPath(const std::string& key, const std::string& fallback) const {
   std::string value = Get<std::string>(key, fallback);
   if (value.empty()) return value;

@@ -37,6 +37,8 @@ class ConfigSection {
   // Optional list of strings.
   std::vector<std::string> GetStringList(const std::string& key,
                                          const std::vector<std::string>& fallback) const;
+  // Optional TCP port (1-65535).
+  int GetPort(const std::string& key, int fallback) const;
   // A string naming a file: relative paths are resolved against the config file's folder.
   std::string GetPath(const std::string& key, const std::string& fallback) const;
   bool Has(const std::string& key) const;

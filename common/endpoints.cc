@@ -5,25 +5,15 @@
 #include "common/config_section.h"
 
 namespace ragdoll {
-namespace {
-
-int Port(const ConfigSection& s, const std::string& key, int fallback) {
-  int port = s.Get<int>(key, fallback);
-  if (port < 1 || port > 65535) s.Fail(key, "must be a TCP port (1-65535)");
-  return port;
-}
-
-}  // namespace
-
 Endpoints ReadEndpoints(const ConfigSection& s) {
   Endpoints e;
   e.host = s.Get<std::string>("host", e.host);
   e.bind = s.Get<std::string>("bind", e.bind);
-  e.trajectory_port = Port(s, "trajectory_port", e.trajectory_port);
-  e.control_port = Port(s, "control_port", e.control_port);
-  e.snapshot_port = Port(s, "snapshot_port", e.snapshot_port);
-  e.learner_port = Port(s, "learner_port", e.learner_port);
-  e.learner_snapshot_port = Port(s, "learner_snapshot_port", e.learner_snapshot_port);
+  e.trajectory_port = s.GetPort("trajectory_port", e.trajectory_port);
+  e.control_port = s.GetPort("control_port", e.control_port);
+  e.snapshot_port = s.GetPort("snapshot_port", e.snapshot_port);
+  e.learner_port = s.GetPort("learner_port", e.learner_port);
+  e.learner_snapshot_port = s.GetPort("learner_snapshot_port", e.learner_snapshot_port);
   e.high_water_mark = s.Get<int>("high_water_mark", e.high_water_mark);
   if (e.high_water_mark < 1) s.Fail("high_water_mark", "must be at least 1");
   e.max_message_bytes = s.Get<int64_t>("max_message_bytes", e.max_message_bytes);

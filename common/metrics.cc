@@ -15,24 +15,14 @@
 #include "common/config_section.h"
 
 namespace ragdoll {
-namespace {
-
-int Port(const ConfigSection& s, const std::string& key, int fallback) {
-  int port = s.Get<int>(key, fallback);
-  if (port < 1 || port > 65535) s.Fail(key, "must be a TCP port (1-65535)");
-  return port;
-}
-
-}  // namespace
-
 MetricsConfig ReadMetricsConfig(const ConfigSection& s) {
   MetricsConfig m;
   m.enabled = s.Get<bool>("enabled", m.enabled);
   m.bind = s.Get<std::string>("bind", m.bind);
   if (m.bind.empty()) s.Fail("bind", "must name an interface address, e.g. 0.0.0.0");
-  m.learner_port = Port(s, "learner_port", m.learner_port);
-  m.broker_port = Port(s, "broker_port", m.broker_port);
-  m.actor_port = Port(s, "actor_port", m.actor_port);
+  m.learner_port = s.GetPort("learner_port", m.learner_port);
+  m.broker_port = s.GetPort("broker_port", m.broker_port);
+  m.actor_port = s.GetPort("actor_port", m.actor_port);
   s.Finish();
   return m;
 }

@@ -15,15 +15,11 @@
 #include "actor/sim/motion_io.h"
 #include "common/cli/experiment.h"
 #include "common/config_section.h"
+#include "common/median.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 

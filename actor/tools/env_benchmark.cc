@@ -21,17 +21,13 @@
 #include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_io.h"
 #include "common/config_section.h"
+#include "common/median.h"
 
 namespace {
 
 using namespace ragdoll;
 using namespace ragdoll::sim;
 using Clock = std::chrono::steady_clock;
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 struct Experiment {
   std::string config_path;

@@ -13,16 +13,12 @@
 
 #include "actor/rollout.h"
 #include "common/cli/experiment.h"
+#include "common/median.h"
 #include "learner/learner.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 
