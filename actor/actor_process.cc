@@ -45,30 +45,21 @@ class ConnectionMonitor : public zmq::monitor_t {
 };
 
 struct ActorMetrics {
-  ActorMetrics(MetricsEndpoint& m, const std::string& actor)
-      : samples(m.Counter("ragdoll_actor_samples_total", "Environment steps simulated",
-                          {{"actor", actor}})),
-        segments(m.Counter("ragdoll_actor_segments_sent_total", "Trajectory segments sent",
-                           {{"actor", actor}})),
-        sent_bytes(m.Counter("ragdoll_actor_sent_bytes_total", "Bytes of segments sent",
-                             {{"actor", actor}})),
-        episodes(
-            m.Counter("ragdoll_actor_episodes_total", "Episodes finished", {{"actor", actor}})),
+  explicit ActorMetrics(MetricsEndpoint& m)
+      : samples(m.Counter("ragdoll_actor_samples_total", "Environment steps simulated")),
+        segments(m.Counter("ragdoll_actor_segments_sent_total", "Trajectory segments sent")),
+        sent_bytes(m.Counter("ragdoll_actor_sent_bytes_total", "Bytes of segments sent")),
+        episodes(m.Counter("ragdoll_actor_episodes_total", "Episodes finished")),
         version(m.Gauge("ragdoll_actor_snapshot_version",
-                        "Version of the policy the actor runs (-1: none yet)", {{"actor", actor}})),
-        swaps(m.Counter("ragdoll_actor_snapshot_swaps_total", "Policy snapshots installed",
-                        {{"actor", actor}})),
+                        "Version of the policy the actor runs (-1: none yet)")),
+        swaps(m.Counter("ragdoll_actor_snapshot_swaps_total", "Policy snapshots installed")),
         rejected(m.Counter("ragdoll_actor_rejected_snapshots_total",
-                           "Snapshot messages dropped as invalid or of another run",
-                           {{"actor", actor}})),
+                           "Snapshot messages dropped as invalid or of another run")),
         reconnects(m.Counter("ragdoll_actor_reconnects_total",
-                             "Reconnections to the broker after the first connection",
-                             {{"actor", actor}})),
+                             "Reconnections to the broker after the first connection")),
         connected(m.Gauge("ragdoll_actor_connected",
-                          "1 while the trajectory socket is connected to the broker",
-                          {{"actor", actor}})),
-        environments(m.Gauge("ragdoll_actor_environments", "Environments stepped in lockstep",
-                             {{"actor", actor}})) {
+                          "1 while the trajectory socket is connected to the broker")),
+        environments(m.Gauge("ragdoll_actor_environments", "Environments stepped in lockstep")) {
     version.Set(-1);
   }
   prometheus::Counter &samples, &segments, &sent_bytes, &episodes;
@@ -83,9 +74,9 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
              const std::atomic<bool>& stop) {
   at::set_num_threads(config.threads);
   RolloutWorker worker(env, config.environments, config.time_horizon, config.seed, config.actor_id);
-  MetricsEndpoint endpoint(config.actor_id, config.metrics_bind, config.metrics_port,
-                           config.run_id);
-  ActorMetrics metrics(endpoint, config.actor_id);
+  MetricsEndpoint endpoint(config.actor_id, config.metrics_bind, config.metrics_port, config.run_id,
+                           {{"actor", config.actor_id}});
+  ActorMetrics metrics(endpoint);
   metrics.environments.Set(config.environments);
   zmq::context_t context(1);
   zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);

@@ -11,7 +11,7 @@ int64_t BrokerCounters::Rejected() const {
   return total;
 }
 
-// The broker's Prometheus series, mirroring BrokerCounters.
+// The broker's Prometheus series: the one record of what it did (counters() reads them).
 struct Broker::Metrics {
   explicit Metrics(MetricsEndpoint& m)
       : forwarded(m.Counter("ragdoll_broker_segments_forwarded_total",
@@ -67,19 +67,23 @@ Broker::Broker(zmq::context_t& context, const BrokerConfig& config, std::string 
   snapshots_out_.bind(e.Bind(e.snapshot_port));
   trajectories_out_.bind(e.Bind(e.learner_port));
   snapshots_in_.bind(e.Bind(e.learner_snapshot_port));
-  if (metrics) metrics_ = std::make_unique<Metrics>(*metrics);
+  if (!metrics) {  // kept, not served
+    own_metrics_ = std::make_unique<MetricsEndpoint>("broker", "", -1, run_id_);
+    metrics = own_metrics_.get();
+  }
+  metrics_ = std::make_unique<Metrics>(*metrics);
 }
 
 void Broker::Reject(const wire::Verdict& verdict, const char* where) {
-  int r = static_cast<int>(verdict.rejection);
-  ++counters_.rejected[r];
-  if (metrics_ && r > 0) metrics_->rejected.at(where)[r - 1]->Increment();
+  const int r = static_cast<int>(verdict.rejection);
+  prometheus::Counter& counter = *metrics_->rejected.at(where).at(r - 1);
+  counter.Increment();
   auto now = Clock::now();
   if (now - last_logged_[r] > std::chrono::seconds(60)) {
     last_logged_[r] = now;
     std::fprintf(stderr, "broker: dropped a message on %s (%s): %s [%lld so far]\n", where,
                  wire::RejectionName(verdict.rejection), verdict.detail.c_str(),
-                 static_cast<long long>(counters_.rejected[r]));
+                 static_cast<long long>(counter.Value()));
   }
 }
 
@@ -104,12 +108,8 @@ void Broker::HandleTrajectory(zmq::message_t& message) {
   size_t bytes = message.size();
   // Forwarded as received: the broker never decodes tensors.
   if (trajectories_out_.send(message, zmq::send_flags::dontwait)) {
-    ++counters_.forwarded;
-    counters_.forwarded_bytes += static_cast<int64_t>(bytes);
-    if (metrics_) {
-      metrics_->forwarded.Increment();
-      metrics_->forwarded_bytes.Increment(static_cast<double>(bytes));
-    }
+    metrics_->forwarded.Increment();
+    metrics_->forwarded_bytes.Increment(static_cast<double>(bytes));
   }
 }
 
@@ -123,20 +123,16 @@ void Broker::HandleSnapshot(zmq::message_t& message) {
   }
   if (!v.ok()) return Reject(v, "snapshots");
   if (!CheckRun(header, "snapshots")) return;
-  ++counters_.snapshots_received;
-  if (metrics_) {
-    metrics_->snapshots_received.Increment();
-    metrics_->snapshot_version.Set(static_cast<double>(header.policy_version()));
-  }
+  metrics_->snapshots_received.Increment();
+  metrics_->snapshot_version.Set(static_cast<double>(header.policy_version()));
   // The learner owns training state: whatever it sends is the newest, even a lower version
   // after it resumed from an older checkpoint.
   bool changed = header.policy_version() != snapshot_version_;
   snapshot_.assign(static_cast<const char*>(message.data()), message.size());
   snapshot_version_ = header.policy_version();
-  if (changed || counters_.snapshots_received % 8 == 0) {
+  if (changed || static_cast<int64_t>(metrics_->snapshots_received.Value()) % 8 == 0) {
     snapshots_out_.send(zmq::buffer(snapshot_), zmq::send_flags::dontwait);
-    ++counters_.snapshots_published;
-    if (metrics_) metrics_->snapshots_published.Increment();
+    metrics_->snapshots_published.Increment();
   }
 }
 
@@ -153,12 +149,10 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
       std::fprintf(stderr, "broker: actor %s connected\n", header.sender().c_str());
       break;
     case v1::KIND_HEARTBEAT:
-      ++counters_.heartbeats;
-      if (metrics_) metrics_->heartbeats.Increment();
+      metrics_->heartbeats.Increment();
       break;
     case v1::KIND_SNAPSHOT_REQUEST: {
-      ++counters_.snapshot_requests;
-      if (metrics_) metrics_->snapshot_requests.Increment();
+      metrics_->snapshot_requests.Increment();
       control_.send(identity, zmq::send_flags::sndmore | zmq::send_flags::dontwait);
       if (snapshot_.empty()) {
         std::string none = wire::PackEmpty(v1::KIND_NO_SNAPSHOT, run_id_, "broker");
@@ -194,7 +188,7 @@ void Broker::PollOnce(int timeout_ms) {
     for (int i = 0; i < 64; ++i) {
       zmq::message_t message;
       if (!trajectories_in_.recv(message, zmq::recv_flags::dontwait)) break;
-      if (metrics_) metrics_->received_bytes.Increment(static_cast<double>(message.size()));
+      metrics_->received_bytes.Increment(static_cast<double>(message.size()));
       HandleTrajectory(message);
     }
   }
@@ -211,7 +205,7 @@ void Broker::PollOnce(int timeout_ms) {
         if (!control_.recv(extra, zmq::recv_flags::dontwait)) break;
         message.swap(extra);
       }
-      if (metrics_) metrics_->received_bytes.Increment(static_cast<double>(message.size()));
+      metrics_->received_bytes.Increment(static_cast<double>(message.size()));
       HandleControl(identity, message);
     }
   }
@@ -219,14 +213,30 @@ void Broker::PollOnce(int timeout_ms) {
     for (int i = 0; i < 16; ++i) {
       zmq::message_t message;
       if (!snapshots_in_.recv(message, zmq::recv_flags::dontwait)) break;
-      if (metrics_) metrics_->received_bytes.Increment(static_cast<double>(message.size()));
+      metrics_->received_bytes.Increment(static_cast<double>(message.size()));
       HandleSnapshot(message);
     }
   }
-  if (metrics_ && Clock::now() - last_gauges_ > std::chrono::milliseconds(500)) {
+  if (Clock::now() - last_gauges_ > std::chrono::milliseconds(500)) {
     last_gauges_ = Clock::now();
     metrics_->actors.Set(ActorsAlive());
   }
+}
+
+BrokerCounters Broker::counters() const {
+  auto count = [](const prometheus::Counter& c) { return static_cast<int64_t>(c.Value()); };
+  const Metrics& m = *metrics_;
+  BrokerCounters c;
+  c.forwarded = count(m.forwarded);
+  c.forwarded_bytes = count(m.forwarded_bytes);
+  c.snapshots_received = count(m.snapshots_received);
+  c.snapshots_published = count(m.snapshots_published);
+  c.snapshot_requests = count(m.snapshot_requests);
+  c.heartbeats = count(m.heartbeats);
+  for (const auto& [socket, reasons] : m.rejected) {
+    for (size_t r = 0; r < reasons.size(); ++r) c.rejected[r + 1] += count(*reasons[r]);
+  }
+  return c;
 }
 
 int Broker::ActorsAlive() const {
@@ -247,12 +257,13 @@ void Broker::Run(const std::atomic<bool>& stop, double log_seconds) {
     PollOnce(100);
     if (std::chrono::duration<double>(Clock::now() - last_log).count() > log_seconds) {
       last_log = Clock::now();
+      const BrokerCounters c = counters();
       std::fprintf(stderr,
                    "broker: %lld segments forwarded (%.1f MB), %lld rejected, snapshot v%lld, "
                    "%d actors alive\n",
-                   static_cast<long long>(counters_.forwarded), counters_.forwarded_bytes / 1e6,
-                   static_cast<long long>(counters_.Rejected()),
-                   static_cast<long long>(snapshot_version_), ActorsAlive());
+                   static_cast<long long>(c.forwarded), c.forwarded_bytes / 1e6,
+                   static_cast<long long>(c.Rejected()), static_cast<long long>(snapshot_version_),
+                   ActorsAlive());
     }
   }
 }

@@ -37,8 +37,8 @@ struct BrokerCounters {
 
 class Broker {
  public:
-  // Binds every socket; throws zmq::error_t when a port is taken. With `metrics`, keeps the
-  // broker's Prometheus series in its registry (it must outlive the broker).
+  // Binds every socket; throws zmq::error_t when a port is taken. Keeps its Prometheus series
+  // in `metrics`' registry (which must outlive the broker), or in a registry of its own.
   Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id,
          MetricsEndpoint* metrics = nullptr);
   ~Broker();
@@ -48,7 +48,8 @@ class Broker {
   // One poll of at most `timeout_ms`; handles whatever arrived.
   void PollOnce(int timeout_ms);
 
-  const BrokerCounters& counters() const { return counters_; }
+  // What the broker did so far, read from its Prometheus series.
+  BrokerCounters counters() const;
   int ActorsAlive() const;
   int64_t snapshot_version() const { return snapshot_version_; }
 
@@ -72,7 +73,7 @@ class Broker {
   int64_t snapshot_version_ = -1;
   std::map<std::string, Clock::time_point> last_seen_;
   std::array<Clock::time_point, 9> last_logged_{};
-  BrokerCounters counters_;
+  std::unique_ptr<MetricsEndpoint> own_metrics_;  // when the caller gave none
   struct Metrics;
   std::unique_ptr<Metrics> metrics_;
   Clock::time_point last_gauges_{};

@@ -28,8 +28,9 @@ MetricsConfig ReadMetricsConfig(const ConfigSection& s) {
 }
 
 MetricsEndpoint::MetricsEndpoint(const std::string& role, const std::string& bind, int port,
-                                 std::string run_id)
-    : registry_(std::make_shared<prometheus::Registry>()), run_id_(std::move(run_id)), port_(port) {
+                                 const std::string& run_id, const prometheus::Labels& labels)
+    : registry_(std::make_shared<prometheus::Registry>()), labels_(labels), port_(port) {
+  labels_["run"] = run_id;
   if (port <= 0) return;
   const std::string address = bind + ":" + std::to_string(port);
   addrinfo hints{};
@@ -125,7 +126,7 @@ prometheus::Gauge& MetricsEndpoint::Gauge(const std::string& name, const std::st
   return prometheus::BuildGauge()
       .Name(name)
       .Help(help)
-      .Labels({{"run", run_id_}})
+      .Labels(labels_)
       .Register(*registry_)
       .Add(labels);
 }
@@ -135,7 +136,7 @@ prometheus::Counter& MetricsEndpoint::Counter(const std::string& name, const std
   return prometheus::BuildCounter()
       .Name(name)
       .Help(help)
-      .Labels({{"run", run_id_}})
+      .Labels(labels_)
       .Register(*registry_)
       .Add(labels);
 }
@@ -146,7 +147,7 @@ prometheus::Histogram& MetricsEndpoint::Histogram(const std::string& name, const
   return prometheus::BuildHistogram()
       .Name(name)
       .Help(help)
-      .Labels({{"run", run_id_}})
+      .Labels(labels_)
       .Register(*registry_)
       .Add(labels, buckets);
 }

@@ -1,6 +1,6 @@
 // Prometheus metrics: every process (learner, broker, each actor) serves its own registry over
 // HTTP at /metrics. Names carry the `ragdoll_` prefix and base units; every family carries the
-// run id as the `run` label.
+// run id as the `run` label, and the process's own constant labels (an actor's id).
 #pragma once
 
 #include <prometheus/counter.h>
@@ -40,7 +40,8 @@ class MetricsEndpoint {
   // Serves at bind:port; port <= 0 serves nothing while the metrics are still kept. A port that
   // cannot be bound is reported on stderr and training goes on without the endpoint: metrics
   // must never stop a run.
-  MetricsEndpoint(const std::string& role, const std::string& bind, int port, std::string run_id);
+  MetricsEndpoint(const std::string& role, const std::string& bind, int port,
+                  const std::string& run_id, const prometheus::Labels& labels = {});
   ~MetricsEndpoint();
   MetricsEndpoint(const MetricsEndpoint&) = delete;
   MetricsEndpoint& operator=(const MetricsEndpoint&) = delete;
@@ -48,9 +49,8 @@ class MetricsEndpoint {
   prometheus::Registry& registry() { return *registry_; }
   // The port listened on; 0 when not serving.
   int port() const { return listening_ >= 0 ? port_ : 0; }
-  const std::string& run_id() const { return run_id_; }
 
-  // Metric families with the run label; extra labels select one series.
+  // Metric families with the constant labels; `labels` select one series.
   prometheus::Gauge& Gauge(const std::string& name, const std::string& help,
                            const prometheus::Labels& labels = {});
   prometheus::Counter& Counter(const std::string& name, const std::string& help,
@@ -64,7 +64,7 @@ class MetricsEndpoint {
   void Answer(int connection);
 
   std::shared_ptr<prometheus::Registry> registry_;
-  std::string run_id_;
+  prometheus::Labels labels_;  // on every family: run, and the constructor's labels
   int port_ = 0;
   int listening_ = -1;  // the listening socket
   std::atomic<bool> stop_{false};

@@ -1,7 +1,6 @@
 #include "learner/learner_process.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -193,10 +192,8 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   const int64_t start_samples = learner.samples();
   int64_t next_checkpoint =
       (learner.samples() / trainer.checkpoint_interval + 1) * trainer.checkpoint_interval;
-  std::array<int64_t, 9> rejected{};
   int64_t rejected_total = 0;
   auto reject = [&](const wire::Verdict& v) {
-    ++rejected[static_cast<int>(v.rejection)];
     metrics.rejected[static_cast<int>(v.rejection) - 1]->Increment();
     if (rejected_total++ % 100 == 0) {
       std::fprintf(stderr, "learner: dropped a segment (%s): %s [%lld dropped so far]\n",

@@ -134,4 +134,36 @@ Quat Character::JointRotation(const double* qpos, int j) const {
   return ComposeHinges(joints_[j].axes, qpos + joints_[j].qpos_address);
 }
 
+std::string DefaultCharacterPath() {
+  return std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
+}
+
+double GeomLowestPoint(const mjModel* m, const mjData* d, int g) {
+  const double* p = d->geom_xpos + 3 * g;
+  const double* r = d->geom_xmat + 9 * g;  // row-major: column k is the geom's k-th axis
+  const double* s = m->geom_size + 3 * g;
+  switch (m->geom_type[g]) {
+    case mjGEOM_SPHERE:
+      return p[2] - s[0];
+    case mjGEOM_CAPSULE:
+      return p[2] - std::abs(r[8]) * s[1] - s[0];
+    case mjGEOM_BOX:  // the centre less the largest vertical reach of the corners
+      return p[2] - std::abs(r[6]) * s[0] - std::abs(r[7]) * s[1] - std::abs(r[8]) * s[2];
+    default:
+      return p[2] - m->geom_rbound[g];
+  }
+}
+
+double Character::LowestPoint(const Pose& pose) const {
+  DataPtr d = MakeData();
+  PoseToQpos(pose, d->qpos);
+  mj_kinematics(model_.get(), d.get());
+  double lowest = INFINITY;
+  for (int g = 0; g < model_->ngeom; ++g) {
+    if (model_->geom_bodyid[g] == 0) continue;  // the floor and other world geometry
+    lowest = std::min(lowest, GeomLowestPoint(model_.get(), d.get(), g));
+  }
+  return lowest;
+}
+
 }  // namespace ragdoll::sim

@@ -41,6 +41,13 @@ struct ActuatedHinge {
   double lower = 0, upper = 0;  // joint range, radians
 };
 
+// Where the shipped character model lives (assets/character/humanoid.xml).
+std::string DefaultCharacterPath();
+
+// The lowest point (world z, metres) of geom `g` in the kinematics of `d`: exact for spheres,
+// capsules and boxes, the bounding sphere for other shapes.
+double GeomLowestPoint(const mjModel* m, const mjData* d, int g);
+
 class Character {
  public:
   // Loads and checks an MJCF file: a free-jointed body "root", every humanoid3d joint built as
@@ -64,6 +71,8 @@ class Character {
   int root_body() const { return bodies_[0]; }
   double total_mass() const { return total_mass_; }
   int BodyId(const std::string& name) const;
+  // The lowest point of the character's geometry (world z, metres) in a pose.
+  double LowestPoint(const Pose& pose) const;
 
   // Joint coordinates for a pose: root position and rotation, then each joint's rotation
   // decomposed onto its hinges and clamped to the joint's range (so a reference is always a pose

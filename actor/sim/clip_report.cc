@@ -35,23 +35,6 @@ std::array<Vec3, 8> BoxCorners(const mjModel* m, const mjData* d, int g) {
   return corners;
 }
 
-// The lowest point of every geom (sphere, capsule, box; others by their bounding sphere).
-double GeomLowest(const mjModel* m, const mjData* d, int g) {
-  const double* p = d->geom_xpos + 3 * g;
-  const double* r = d->geom_xmat + 9 * g;
-  const double* s = m->geom_size + 3 * g;
-  switch (m->geom_type[g]) {
-    case mjGEOM_SPHERE:
-      return p[2] - s[0];
-    case mjGEOM_CAPSULE:
-      return p[2] - std::abs(r[8]) * s[1] - s[0];
-    case mjGEOM_BOX:
-      return p[2] - std::abs(r[6]) * s[0] - std::abs(r[7]) * s[1] - std::abs(r[8]) * s[2];
-    default:
-      return p[2] - m->geom_rbound[g];
-  }
-}
-
 }  // namespace
 
 int ClipReport::Count(const std::string& kind) const {
@@ -121,7 +104,7 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
     int lowest_body = 0;
     for (int g = 0; g < m->ngeom; ++g) {
       if (m->geom_bodyid[g] == 0) continue;
-      double z = GeomLowest(m, d.get(), g);
+      double z = GeomLowestPoint(m, d.get(), g);
       if (z < lowest) {
         lowest = z;
         lowest_body = m->geom_bodyid[g];

@@ -147,14 +147,10 @@ std::map<std::string, Vec3> CharacterRest(const Character& character) {
 int FindBvhJoint(const BvhMotion& bvh, const std::string& name) {
   int exact = bvh.Find(name);
   if (exact >= 0) return exact;
+  auto bare = [](const std::string& n) { return n.substr(n.rfind(':') + 1); };  // npos + 1 = 0
+  const std::string wanted = bare(name);
   for (size_t i = 0; i < bvh.joints.size(); ++i) {
-    const std::string& n = bvh.joints[i].name;
-    if (bvh.joints[i].end_site) continue;
-    size_t colon = n.rfind(':');
-    std::string bare = colon == std::string::npos ? n : n.substr(colon + 1);
-    size_t name_colon = name.rfind(':');
-    std::string bare_name = name_colon == std::string::npos ? name : name.substr(name_colon + 1);
-    if (bare == bare_name) return static_cast<int>(i);
+    if (!bvh.joints[i].end_site && bare(bvh.joints[i].name) == wanted) return static_cast<int>(i);
   }
   return -1;
 }
@@ -219,35 +215,6 @@ JointMapping ReadJointMapping(const std::string& preset_or_path) {
   return mapping;
 }
 
-double LowestPoint(const Character& character, const Pose& pose) {
-  const mjModel* m = character.model();
-  DataPtr d = character.MakeData();
-  character.PoseToQpos(pose, d->qpos);
-  mj_kinematics(m, d.get());
-  double lowest = INFINITY;
-  for (int g = 0; g < m->ngeom; ++g) {
-    if (m->geom_bodyid[g] == 0) continue;  // the floor and other world geometry
-    const double* p = d->geom_xpos + 3 * g;
-    const double* r = d->geom_xmat + 9 * g;  // row-major: column k is the geom's k-th axis
-    const double* s = m->geom_size + 3 * g;
-    switch (m->geom_type[g]) {
-      case mjGEOM_SPHERE:
-        lowest = std::min(lowest, p[2] - s[0]);
-        break;
-      case mjGEOM_CAPSULE:
-        lowest = std::min(lowest, p[2] - std::abs(r[8]) * s[1] - s[0]);
-        break;
-      case mjGEOM_BOX:
-        lowest = std::min(
-            lowest, p[2] - std::abs(r[6]) * s[0] - std::abs(r[7]) * s[1] - std::abs(r[8]) * s[2]);
-        break;
-      default:
-        lowest = std::min(lowest, p[2] - m->geom_rbound[g]);
-    }
-  }
-  return lowest;
-}
-
 MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
                        const Character& character, const ImportOptions& options,
                        std::vector<std::string>* warnings) {
@@ -277,10 +244,9 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
   if (!has("root")) fail("the mapping does not name the root joint");
 
   // The BVH rest pose: where is up, where is forward, how big is it.
-  std::vector<Quat> rest_rotation;
+  std::vector<Quat> rest_rotation;  // all identity: rest is every channel at zero
   std::vector<Vec3> rest_position;
   BvhForwardKinematics(bvh, -1, &rest_rotation, &rest_position);
-  auto rest_of_joint = [&](int j) { return rest_position[j]; };
   // The far end of a part's bone: the mapped part, else the joint's first child.
   auto bone_end = [&](const std::string& part, const std::string& end) -> int {
     if (has(end)) return joint[end];
@@ -293,16 +259,16 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
   Vec3 up_raw = {0, 0, 0};
   for (const char* top : {"neck", "chest", "head"}) {
     if (has(top)) {
-      up_raw = Sub(rest_of_joint(joint[top]), rest_of_joint(joint["root"]));
+      up_raw = Sub(rest_position[joint[top]], rest_position[joint["root"]]);
       if (Norm(up_raw) > 0) break;
     }
   }
   if (!(Norm(up_raw) > 0)) fail("cannot find the up direction: map chest, neck or head");
   Vec3 left_raw = {0, 0, 0};
   if (has("left_hip") && has("right_hip")) {
-    left_raw = Sub(rest_of_joint(joint["left_hip"]), rest_of_joint(joint["right_hip"]));
+    left_raw = Sub(rest_position[joint["left_hip"]], rest_position[joint["right_hip"]]);
   } else if (has("left_shoulder") && has("right_shoulder")) {
-    left_raw = Sub(rest_of_joint(joint["left_shoulder"]), rest_of_joint(joint["right_shoulder"]));
+    left_raw = Sub(rest_position[joint["left_shoulder"]], rest_position[joint["right_shoulder"]]);
   }
   if (options.mirror) left_raw = Scale(left_raw, -1);
   const Vec3 up = Snap(up_raw);
@@ -323,8 +289,8 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
       const std::string hip = std::string(side) + "hip", knee = std::string(side) + "knee",
                         ankle = std::string(side) + "ankle";
       if (has(hip) && has(knee) && has(ankle)) {
-        bvh_leg += Norm(Sub(rest_of_joint(joint[hip]), rest_of_joint(joint[knee]))) +
-                   Norm(Sub(rest_of_joint(joint[knee]), rest_of_joint(joint[ankle])));
+        bvh_leg += Norm(Sub(rest_position[joint[hip]], rest_position[joint[knee]])) +
+                   Norm(Sub(rest_position[joint[knee]], rest_position[joint[ankle]]));
         char_leg += Norm(Sub(char_rest.at(hip), char_rest.at(knee))) +
                     Norm(Sub(char_rest.at(knee), char_rest.at(ankle)));
       }
@@ -348,13 +314,13 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
     driven[s] = true;
     int end = bone_end(seg.part, seg.bone_end);
     if (end < 0) continue;  // no bone to align: rest frames taken as equal
-    Vec3 bvh_bone = in_character(Sub(rest_of_joint(end), rest_of_joint(joint[seg.part])));
+    Vec3 bvh_bone = in_character(Sub(rest_position[end], rest_position[joint[seg.part]]));
     Vec3 char_bone = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
     if (!(Norm(bvh_bone) > 1e-9)) continue;
     Vec3 bvh_twist = {1, 0, 0}, char_twist = {1, 0, 0};
     auto pair = [&](const char* l, const char* r) {
       if (has(l) && has(r)) {
-        bvh_twist = in_character(Sub(rest_of_joint(joint[l]), rest_of_joint(joint[r])));
+        bvh_twist = in_character(Sub(rest_position[joint[l]], rest_position[joint[r]]));
         char_twist = Sub(char_rest.at(l), char_rest.at(r));
       }
     };
@@ -422,7 +388,7 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
     p.root_position = Rotate(heading, Sub(p.root_position, {start[0], start[1], 0}));
   }
   double lowest = INFINITY;
-  for (const Pose& p : frames) lowest = std::min(lowest, LowestPoint(character, p));
+  for (const Pose& p : frames) lowest = std::min(lowest, character.LowestPoint(p));
   for (Pose& p : frames) p.root_position[2] -= lowest;
 
   std::string name =

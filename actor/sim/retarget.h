@@ -62,7 +62,4 @@ BvhMotion ClipToBvh(const MotionClip& clip, const Character& character, const Jo
                     const ExportOptions& options);
 std::string FormatBvh(const BvhMotion& bvh);
 
-// The lowest point of the character's geometry for a pose (metres above the floor).
-double LowestPoint(const Character& character, const Pose& pose);
-
 }  // namespace ragdoll::sim

@@ -11,7 +11,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app("Writes the project's authored motion clips (stand, arms, squat, walk).");
-  std::string character_path = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
+  std::string character_path = ragdoll::sim::DefaultCharacterPath();
   std::string out_dir = std::string(RAGDOLL_ASSETS_DIR) + "/motions";
   app.add_option("--character", character_path, "character MJCF")->capture_default_str();
   app.add_option("--out", out_dir, "output folder")->capture_default_str();

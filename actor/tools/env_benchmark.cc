@@ -40,8 +40,7 @@ Experiment LoadExperiment(const std::string& path) {
   Experiment e;
   e.config_path = path;
   ConfigSection root = ConfigSection::FromFile(path);
-  e.config = ReadEnvConfig(root.Section("environment"),
-                           std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml");
+  e.config = ReadEnvConfig(root.Section("environment"), sim::DefaultCharacterPath());
   e.character = Character::Load(e.config.character, e.config.physics_dt());
   e.clip = std::make_shared<const MotionClip>(LoadMotion(e.config.motion));
   return e;

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <thread>
 
+#include "actor/sim/character.h"
 #include "common/config_section.h"
 
 namespace ragdoll::cli {
@@ -16,8 +17,7 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
   e.path = path;
   e.name = std::filesystem::path(path).stem().string();
   ConfigSection root = ConfigSection::FromFile(path);
-  e.environment = sim::ReadEnvConfig(root.Section("environment"),
-                                     std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml");
+  e.environment = sim::ReadEnvConfig(root.Section("environment"), sim::DefaultCharacterPath());
   e.trainer = learner::ReadTrainerConfig(root.Section("trainer"));
 
   ConfigSection actors = root.Section("actors");

@@ -23,7 +23,7 @@ struct MotionOptions {
 };
 
 std::string CharacterPath(const std::string& given) {
-  return given.empty() ? std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml" : given;
+  return given.empty() ? sim::DefaultCharacterPath() : given;
 }
 
 int Import(const MotionOptions& o) {

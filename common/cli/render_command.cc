@@ -71,7 +71,7 @@ int Render(const RenderOptions& o) {
   } else {
     if (o.clip.empty()) throw ConfigError("render: give a run (or checkpoint), --clip, or both");
     env.motion = o.clip;
-    env.character = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
+    env.character = sim::DefaultCharacterPath();
   }
   auto clip = sim::LoadMotion(env.motion);
   auto character = sim::Character::Load(env.character, env.physics_dt());

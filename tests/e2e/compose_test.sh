@@ -77,8 +77,8 @@ podman build --network host --build-arg BASE_IMAGE=localhost/bookworm-base \
   > "$work/build-prometheus.log" 2>&1 || { tail -n 20 "$work/build-prometheus.log"; fail "prometheus image"; }
 build_s=$((SECONDS - t0))
 image_size=$(podman image inspect "$RAGDOLL_IMAGE" --format '{{.Size}}')
-build_size=$(podman image inspect localhost/bookworm-base --format '{{.Size}}')
-log "images built in ${build_s}s; ragdoll image $((image_size / 1000000)) MB (base $((build_size / 1000000)) MB)"
+base_size=$(podman image inspect localhost/bookworm-base --format '{{.Size}}')
+log "images built in ${build_s}s; ragdoll image $((image_size / 1000000)) MB (base $((base_size / 1000000)) MB)"
 
 # 2. The stack: broker, learner, two actors, Prometheus.
 t0=$SECONDS

@@ -88,7 +88,7 @@ TEST_F(BrokerTest, ForwardsSegmentsUnchangedAndCountsBadMessages) {
   zmq::message_t forwarded;
   ASSERT_TRUE(Receive(learner, &forwarded));
   EXPECT_EQ(forwarded.to_string(), good);  // byte for byte
-  const BrokerCounters& c = broker_->counters();
+  const BrokerCounters c = broker_->counters();
   EXPECT_EQ(c.forwarded, 1);
   EXPECT_EQ(c.forwarded_bytes, static_cast<int64_t>(good.size()));
   EXPECT_EQ(c.rejected[static_cast<int>(wire::Rejection::kMalformed)], 1);

@@ -30,13 +30,6 @@ class CharacterTest : public ::testing::Test {
     static std::string w;
     return w;
   }
-  // Lowest point of a box geom in the current kinematics.
-  static double LowestPoint(const mjModel* m, const mjData* d, int geom) {
-    const double* R = d->geom_xmat + 9 * geom;
-    const double* size = m->geom_size + 3 * geom;
-    double reach = std::abs(R[6]) * size[0] + std::abs(R[7]) * size[1] + std::abs(R[8]) * size[2];
-    return d->geom_xpos[3 * geom + 2] - reach;
-  }
   std::shared_ptr<const Character> character_;
 };
 
@@ -130,14 +123,14 @@ TEST_F(CharacterTest, DefaultPoseRestsOnTheFloor) {
   int right = mj_name2id(m, mjOBJ_GEOM, "right_ankle");
   int left = mj_name2id(m, mjOBJ_GEOM, "left_ankle");
   // Soles exactly on the floor in the model's default pose.
-  EXPECT_NEAR(LowestPoint(m, d.get(), right), 0.0, 1e-4);
-  EXPECT_NEAR(LowestPoint(m, d.get(), left), 0.0, 1e-4);
+  EXPECT_NEAR(GeomLowestPoint(m, d.get(), right), 0.0, 1e-4);
+  EXPECT_NEAR(GeomLowestPoint(m, d.get(), left), 0.0, 1e-4);
 
   // Held by its PD drives at the rest pose, it settles without sinking, and only feet touch.
   double start_height = d->qpos[2];
   for (int i = 0; i < 300; ++i) mj_step(m, d.get());  // 0.5 s
   EXPECT_NEAR(d->qpos[2], start_height, 0.01);
-  EXPECT_GT(LowestPoint(m, d.get(), right), -0.005);
+  EXPECT_GT(GeomLowestPoint(m, d.get(), right), -0.005);
   EXPECT_GT(d->ncon, 0);
   for (int c = 0; c < d->ncon; ++c) {
     int b1 = m->geom_bodyid[d->contact[c].geom1], b2 = m->geom_bodyid[d->contact[c].geom2];

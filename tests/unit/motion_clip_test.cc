@@ -645,15 +645,6 @@ TEST(AssetMotions, AllLoad) {
 
 // --- the DeepMimic walk on this project's humanoid ---
 
-// Lowest point of a box geom: its centre's height less the largest vertical reach of its
-// corners, sum_k |R[2][k]| * halfsize[k].
-double LowestPoint(const mjModel* m, const mjData* d, int geom) {
-  const double* R = d->geom_xmat + 9 * geom;
-  const double* size = m->geom_size + 3 * geom;
-  double reach = std::abs(R[6]) * size[0] + std::abs(R[7]) * size[1] + std::abs(R[8]) * size[2];
-  return d->geom_xpos[3 * geom + 2] - reach;
-}
-
 TEST(DeepMimicWalkOnHumanoid, FeetTouchTheFloorWithoutSinking) {
   auto character = Character::Load(kAssets + "/character/humanoid.xml");
   const mjModel* m = character->model();
@@ -674,7 +665,7 @@ TEST(DeepMimicWalkOnHumanoid, FeetTouchTheFloorWithoutSinking) {
     mj_kinematics(m, d.get());
     double height[2];
     for (int s = 0; s < 2; ++s) {
-      height[s] = LowestPoint(m, d.get(), feet[s]);
+      height[s] = GeomLowestPoint(m, d.get(), feet[s]);
       foot_min[s] = std::min(foot_min[s], height[s]);
     }
     double lower = std::min(height[0], height[1]);

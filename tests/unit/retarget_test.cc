@@ -36,8 +36,8 @@ class RetargetTest : public ::testing::Test {
     ASSERT_EQ(a.num_frames(), b.num_frames());
     double floor_a = INFINITY, floor_b = INFINITY;
     for (int f = 0; f < a.num_frames(); ++f) {
-      floor_a = std::min(floor_a, LowestPoint(*character_, a.frame(f)));
-      floor_b = std::min(floor_b, LowestPoint(*character_, b.frame(f)));
+      floor_a = std::min(floor_a, character_->LowestPoint(a.frame(f)));
+      floor_b = std::min(floor_b, character_->LowestPoint(b.frame(f)));
     }
     *rotation = *position = 0;
     for (int f = 0; f < a.num_frames(); ++f) {
