@@ -13,7 +13,7 @@
 
 #include "actor/rollout.h"
 #include "actor/sim/motion_io.h"
-#include "common/cli/experiment.h"
+#include "cli/experiment.h"
 #include "common/config_section.h"
 #include "common/median.h"
 

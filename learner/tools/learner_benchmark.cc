@@ -12,7 +12,7 @@
 #include <random>
 
 #include "actor/rollout.h"
-#include "common/cli/experiment.h"
+#include "cli/experiment.h"
 #include "common/median.h"
 #include "learner/learner.h"
 

@@ -1,4 +1,4 @@
-#include "common/cli/motion_commands.h"
+#include "cli/motion_commands.h"
 
 #include <chrono>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "common/cli/render_command.h"
+#include "cli/render_command.h"
 
 #include <unistd.h>
 
@@ -12,7 +12,7 @@
 #include "actor/render/video.h"
 #include "actor/rollout.h"
 #include "actor/sim/motion_io.h"
-#include "common/cli/trained_policy.h"
+#include "cli/trained_policy.h"
 #include "common/config_section.h"
 
 namespace ragdoll::cli {

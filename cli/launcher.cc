@@ -1,4 +1,4 @@
-#include "common/cli/launcher.h"
+#include "cli/launcher.h"
 
 #include <signal.h>
 #include <sys/wait.h>
@@ -13,7 +13,7 @@
 #include <thread>
 #include <vector>
 
-#include "common/cli/experiment.h"
+#include "cli/experiment.h"
 
 namespace ragdoll::cli {
 namespace fs = std::filesystem;

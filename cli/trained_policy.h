@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "common/cli/experiment.h"
+#include "cli/experiment.h"
 #include "common/wire.h"
 
 namespace ragdoll::cli {

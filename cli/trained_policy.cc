@@ -1,4 +1,4 @@
-#include "common/cli/trained_policy.h"
+#include "cli/trained_policy.h"
 
 #include <filesystem>
 

@@ -1,4 +1,4 @@
-#include "common/cli/experiment.h"
+#include "cli/experiment.h"
 
 #include <yaml-cpp/yaml.h>
 
