@@ -8,6 +8,8 @@
 #include <thread>
 
 #include "actor/sim/character.h"
+#include "actor/sim/clip_report.h"
+#include "actor/sim/motion_io.h"
 #include "common/config_section.h"
 
 namespace ragdoll::cli {
@@ -55,9 +57,20 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
 
   // The effective configuration: the file with its paths made absolute, so that it still works
   // from the run folder (evaluation reads it from there).
+  // `allowed_contacts: auto` resolved here as the environment will resolve it, so that start-up
+  // can print the list and the run's effective configuration records it.
+  if (e.environment.contacts_from_clip) {
+    auto character = sim::Character::Load(e.environment.character, e.environment.physics_dt());
+    e.environment.allowed_contacts =
+        sim::ClipGroundContacts(sim::LoadMotion(e.environment.motion), *character);
+  }
   YAML::Node node = YAML::LoadFile(path);
   node["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
   node["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
+  YAML::Node contacts(YAML::NodeType::Sequence);
+  for (const auto& body : e.environment.allowed_contacts) contacts.push_back(body);
+  contacts.SetStyle(YAML::EmitterStyle::Flow);
+  node["environment"]["allowed_contacts"] = contacts;
   YAML::Emitter out;
   out << node;
   e.text = std::string(out.c_str()) + "\n";

@@ -81,6 +81,12 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
     std::ofstream out(run_dir / "config.yaml");
     out << e.text;
   }
+  std::string contacts;
+  for (const auto& body : e.environment.allowed_contacts) contacts += " " + body;
+  std::fprintf(stderr, "ragdoll train: bodies allowed on the ground (%s):%s\n",
+               e.environment.contacts_from_clip ? "auto: the feet and what the clip puts there"
+                                                : "from the config",
+               contacts.c_str());
   const int actors = options.actors > 0 ? options.actors : ResolveActorCount(e.actor_count);
   std::fprintf(
       stderr, "ragdoll train: run %s in %s: 1 broker, 1 learner, %d actor%s x %d environments\n",

@@ -58,6 +58,11 @@ YAML::Node ConfigSection::Lookup(const std::string& key) const {
 
 bool ConfigSection::Has(const std::string& key) const { return static_cast<bool>(Lookup(key)); }
 
+bool ConfigSection::IsList(const std::string& key) const {
+  YAML::Node value = Lookup(key);
+  return value && value.IsSequence();
+}
+
 std::vector<std::string> ConfigSection::GetStringList(
     const std::string& key, const std::vector<std::string>& fallback) const {
   YAML::Node value = Lookup(key);

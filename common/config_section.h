@@ -42,6 +42,8 @@ class ConfigSection {
   // A string naming a file: relative paths are resolved against the config file's folder.
   std::string GetPath(const std::string& key, const std::string& fallback) const;
   bool Has(const std::string& key) const;
+  // Whether the key is present and holds a list (for keys that take a word or a list).
+  bool IsList(const std::string& key) const;
 
   // A nested mapping (an empty one when absent). Its keys are checked by its own Finish().
   ConfigSection Section(const std::string& key) const;

@@ -69,6 +69,7 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
     }
   }
   std::map<std::string, int> contact_frames;
+  std::vector<int> body_contact_frames(m->nbody, 0);
   // Per foot: the previous frame's corners and which corner was lowest, if it was in contact.
   std::map<std::string, std::array<Vec3, 8>> previous_corners;
   std::map<std::string, int> previous_lowest;
@@ -102,15 +103,18 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
     mj_kinematics(m, d.get());
     double lowest = INFINITY;
     int lowest_body = 0;
+    std::vector<char> touches(m->nbody, 0);
     for (int g = 0; g < m->ngeom; ++g) {
       if (m->geom_bodyid[g] == 0) continue;
       double z = GeomLowestPoint(m, d.get(), g);
+      if (z < kContactHeight) touches[m->geom_bodyid[g]] = 1;
       if (z < lowest) {
         lowest = z;
         lowest_body = m->geom_bodyid[g];
       }
     }
     r.lowest_point = std::min(r.lowest_point, lowest);
+    for (int b = 0; b < m->nbody; ++b) body_contact_frames[b] += touches[b];
     if (lowest < -kPenetration) {
       char detail[160];
       std::snprintf(detail, sizeof(detail), "%s %.1f cm below the floor",
@@ -157,7 +161,28 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
   }
   r.contact_right = static_cast<double>(contact_frames["right_ankle"]) / r.frames;
   r.contact_left = static_cast<double>(contact_frames["left_ankle"]) / r.frames;
+  for (int b : character.bodies()) {
+    if (body_contact_frames[b] > 0) {
+      r.ground_contacts.emplace_back(mj_id2name(m, mjOBJ_BODY, b),
+                                     static_cast<double>(body_contact_frames[b]) / r.frames);
+    }
+  }
+  r.renormalized_rotations = clip.renormalized_rotations();
+  r.max_norm_deviation = clip.max_norm_deviation();
   return r;
+}
+
+std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Character& character) {
+  ClipReport report = InspectClip(clip, character);
+  std::vector<std::string> bodies;
+  for (int b : character.bodies()) {
+    const std::string name = mj_id2name(character.model(), mjOBJ_BODY, b);
+    bool feet = name == "right_ankle" || name == "left_ankle";
+    bool touches = std::any_of(report.ground_contacts.begin(), report.ground_contacts.end(),
+                               [&](const auto& c) { return c.first == name; });
+    if (feet || touches) bodies.push_back(name);
+  }
+  return bodies;
 }
 
 std::string ClipReport::ToText() const {
@@ -186,6 +211,17 @@ std::string ClipReport::ToText() const {
   out << line;
   std::snprintf(line, sizeof(line), "foot contact    right %.0f %% of frames, left %.0f %%\n",
                 contact_right * 100, contact_left * 100);
+  out << line;
+  out << "ground contact ";
+  for (const auto& [body, fraction] : ground_contacts) {
+    std::snprintf(line, sizeof(line), " %s %.0f %%", body.c_str(), fraction * 100);
+    out << line;
+  }
+  out << (ground_contacts.empty() ? " none\n" : "\n");
+  std::snprintf(line, sizeof(line),
+                "rotations       %d renormalised (norm off by more than 0.001); largest "
+                "|norm - 1| %.4f\n",
+                renormalized_rotations, max_norm_deviation);
   out << line;
   for (const char* kind : {"penetration", "foot_sliding", "joint_limit"}) {
     const int n = Count(kind);
@@ -217,6 +253,11 @@ std::string ClipReport::ToJson() const {
   j["root_height"] = {root_height_min, root_height_max};
   j["lowest_point"] = lowest_point;
   j["foot_contact"] = {{"right", contact_right}, {"left", contact_left}};
+  nlohmann::json contacts = nlohmann::json::object();
+  for (const auto& [body, fraction] : ground_contacts) contacts[body] = fraction;
+  j["ground_contacts"] = contacts;
+  j["renormalized_rotations"] = renormalized_rotations;
+  j["max_norm_deviation"] = max_norm_deviation;
   nlohmann::json list = nlohmann::json::array();
   for (const auto& i : issues) {
     list.push_back({{"frame", i.frame}, {"time", i.time}, {"kind", i.kind}, {"detail", i.detail}});

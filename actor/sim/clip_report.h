@@ -30,7 +30,13 @@ struct ClipReport {
   Vec3 cycle_displacement = {0, 0, 0};  // a looping clip's root displacement per cycle
   double root_height_min = 0, root_height_max = 0;
   double contact_right = 0, contact_left = 0;  // fraction of frames the foot is on the floor
-  double lowest_point = 0;                     // lowest geometry over the clip, metres
+  // Every body whose geometry comes within 2 cm of the floor in some key frame, in skeleton
+  // order, with the fraction of frames it does: where the clip itself touches the ground.
+  std::vector<std::pair<std::string, double>> ground_contacts;
+  // Rotations the reader normalised (norm off by more than 1e-3) and the largest |norm - 1|.
+  int renormalized_rotations = 0;
+  double max_norm_deviation = 0;
+  double lowest_point = 0;  // lowest geometry over the clip, metres
   std::vector<ClipIssue> issues;
 
   int Count(const std::string& kind) const;
@@ -43,5 +49,9 @@ struct ClipReport {
 // consecutive frames yet moves faster than 0.3 m/s; a hinge angle more than 0.05 rad beyond its
 // range.
 ClipReport InspectClip(const MotionClip& clip, const Character& character);
+
+// The bodies that may touch the ground while imitating `clip` (`allowed_contacts: auto`): the
+// feet, and every body the clip itself puts on the floor (ClipReport::ground_contacts).
+std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Character& character);
 
 }  // namespace ragdoll::sim

@@ -45,7 +45,14 @@ EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_chara
   c.random_start = s.Get<bool>("random_start", c.random_start);
   c.start_phase = s.Get<double>("start_phase", c.start_phase);
   if (!(c.start_phase >= 0 && c.start_phase < 1)) s.Fail("start_phase", "must be in [0, 1)");
-  c.allowed_contacts = s.GetStringList("allowed_contacts", c.allowed_contacts);
+  if (s.Has("allowed_contacts") && s.IsList("allowed_contacts")) {
+    c.contacts_from_clip = false;
+    c.allowed_contacts = s.GetStringList("allowed_contacts", {});
+  } else if (s.Get<std::string>("allowed_contacts", "auto") != "auto") {
+    s.Fail("allowed_contacts",
+           "expected 'auto' (the bodies the clip puts on the floor) or a list of bodies, e.g. "
+           "[right_ankle, left_ankle]");
+  }
   c.max_root_distance = Positive(s, "max_root_distance", c.max_root_distance);
 
   ConfigSection weights = s.Section("joint_weights");

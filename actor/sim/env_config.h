@@ -29,7 +29,10 @@ struct EnvConfig {
   bool random_start = true;  // reference state initialisation at a uniformly random phase
   double start_phase = 0.0;  // the phase in [0, 1) used when random_start is false
   // Bodies that may touch the ground; any other contact ends the episode (a fall).
-  std::vector<std::string> allowed_contacts = {"right_ankle", "left_ankle"};
+  // `allowed_contacts: auto` (the default): the feet and every body the reference clip puts on
+  // the floor (ClipGroundContacts), resolved when the environment is built.
+  bool contacts_from_clip = true;
+  std::vector<std::string> allowed_contacts;  // the explicit list, when not from the clip
   // The episode also ends when the root is further than this from the reference root, m.
   double max_root_distance = 1.0;
   // Relative importance of each joint in the rotation and velocity terms (DeepMimic's humanoid3d

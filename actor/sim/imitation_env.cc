@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "actor/sim/clip_report.h"
 #include "actor/sim/observation.h"
 #include "common/config_section.h"
 
@@ -61,6 +62,8 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
   }
   for (const auto& h : character_->hinges()) hinge_joint_.push_back(h.joint);
   may_touch_ground_.assign(m->nbody, 0);
+  if (config_.contacts_from_clip)
+    config_.allowed_contacts = ClipGroundContacts(*clip_, *character_);
   for (const auto& name : config_.allowed_contacts) {
     int id = mj_name2id(m, mjOBJ_BODY, name.c_str());
     if (id < 0) {

@@ -89,6 +89,8 @@ class ImitationEnv {
   const mjData& data() const { return *data_; }
   const Character& character() const { return *character_; }
   const MotionClip& clip() const { return *clip_; }
+  // The bodies that may touch the ground (the config's list, or the clip's when it says auto).
+  const std::vector<std::string>& allowed_contacts() const { return config_.allowed_contacts; }
   double time() const { return time_; }
   double phase() const { return clip_->Phase(time_); }
   int64_t bad_actions() const { return bad_actions_; }

@@ -1,5 +1,6 @@
 #include "actor/sim/motion_clip.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -8,20 +9,32 @@
 namespace ragdoll::sim {
 namespace {
 
-// Quaternions in clip files carry six decimals; anything further from unit norm is an error in
-// the file, not rounding.
-constexpr double kUnitTolerance = 1e-3;
-
-void CheckQuat(const Quat& q, int frame, const std::string& field) {
-  double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  if (!std::isfinite(norm) || std::abs(norm - 1) > kUnitTolerance) {
-    throw std::invalid_argument("frame " + std::to_string(frame) + ": " + field +
-                                ": quaternion is not unit length (norm " + std::to_string(norm) +
-                                ")");
-  }
-}
+// Rotations in clip files are often not quite unit quaternions: DeepMimic's published motions
+// carry norms from about 0.85 to 1.15, and DeepMimic normalises them on reading. So does this
+// reader. Only a rotation that cannot be meant as one is refused: not finite, or a norm this far
+// from 1 (a zero quaternion, a wrong column, a scale of 2).
+constexpr double kMaxNormDeviation = 0.5;
+// Six decimals in a file leave norms off by up to ~1e-6; past this a rotation was denormalised.
+constexpr double kRoundingTolerance = 1e-3;
 
 }  // namespace
+
+Quat MotionClip::Renormalize(const Quat& q, int frame, const std::string& field) {
+  double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!std::isfinite(norm)) {
+    throw std::invalid_argument("frame " + std::to_string(frame) + ": " + field +
+                                ": quaternion is not finite");
+  }
+  double deviation = std::abs(norm - 1);
+  if (deviation > kMaxNormDeviation) {
+    throw std::invalid_argument("frame " + std::to_string(frame) + ": " + field +
+                                ": quaternion norm " + std::to_string(norm) +
+                                " is too far from 1 to be a rotation (accepted: 0.5 to 1.5)");
+  }
+  if (deviation > kRoundingTolerance) ++renormalized_rotations_;
+  max_norm_deviation_ = std::max(max_norm_deviation_, deviation);
+  return {q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm};
+}
 
 MotionClip::MotionClip(std::string name, bool loop, std::vector<double> frame_durations,
                        std::vector<Pose> frames)
@@ -61,11 +74,9 @@ MotionClip::MotionClip(std::string name, bool loop, std::vector<double> frame_du
                                   std::to_string(joints.size()) + " joint rotations, got " +
                                   std::to_string(pose.joint_rotations.size()));
     }
-    CheckQuat(pose.root_rotation, f, "root rotation");
-    pose.root_rotation = Normalized(pose.root_rotation);
+    pose.root_rotation = Renormalize(pose.root_rotation, f, "root rotation");
     for (size_t j = 0; j < joints.size(); ++j) {
-      CheckQuat(pose.joint_rotations[j], f, joints[j].name);
-      pose.joint_rotations[j] = Normalized(pose.joint_rotations[j]);
+      pose.joint_rotations[j] = Renormalize(pose.joint_rotations[j], f, joints[j].name);
     }
   }
   if (loop_) {

@@ -29,8 +29,9 @@ class MotionClip {
   // `frame_durations[i]` is the time from frame i to frame i + 1 (the last entry is unused).
   // A looping clip's last frame closes the cycle: it is the first pose, displaced by however far
   // the root travels in one cycle. Throws std::invalid_argument naming the frame and field on
-  // fewer than two frames, non-positive or non-finite durations, wrong joint counts or non-unit
-  // quaternions.
+  // fewer than two frames, non-positive or non-finite durations, wrong joint counts, or a
+  // rotation that is not finite or whose norm is outside [0.5, 1.5]. Other rotations are
+  // normalised (motion files in the wild carry norms off by 15 %).
   MotionClip(std::string name, bool loop, std::vector<double> frame_durations,
              std::vector<Pose> frames);
 
@@ -42,6 +43,10 @@ class MotionClip {
   const Pose& frame(int i) const { return frames_[i]; }
   double frame_time(int i) const { return start_times_[i]; }
   double frame_duration(int i) const { return durations_[i]; }
+  // Rotations whose norm was off by more than file rounding (1e-3) and were normalised, and the
+  // largest deviation |norm - 1| of any rotation in the clip.
+  int renormalized_rotations() const { return renormalized_rotations_; }
+  double max_norm_deviation() const { return max_norm_deviation_; }
   // Horizontal root displacement over one cycle (zero for a clip that does not loop).
   const Vec3& cycle_displacement() const { return cycle_displacement_; }
 
@@ -61,6 +66,8 @@ class MotionClip {
  private:
   // Key frame index i and blend alpha in [0, 1) for `time`, plus whole cycles elapsed.
   void Locate(double time, int* index, double* alpha, double* cycles) const;
+  // `q` scaled to unit length, counted; throws for a degenerate one, naming frame and field.
+  Quat Renormalize(const Quat& q, int frame, const std::string& field);
 
   std::string name_;
   bool loop_;
@@ -68,6 +75,8 @@ class MotionClip {
   std::vector<double> start_times_;
   std::vector<Pose> frames_;
   Vec3 cycle_displacement_ = {0, 0, 0};
+  int renormalized_rotations_ = 0;
+  double max_norm_deviation_ = 0;
 };
 
 }  // namespace ragdoll::sim

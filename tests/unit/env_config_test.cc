@@ -41,7 +41,8 @@ TEST(EnvConfig, DefaultsNeedOnlyAMotion) {
   EXPECT_EQ(c.offset_scale, 0.5);
   EXPECT_TRUE(c.random_start);
   EXPECT_EQ(c.start_phase, 0);
-  EXPECT_EQ(c.allowed_contacts, (std::vector<std::string>{"right_ankle", "left_ankle"}));
+  EXPECT_TRUE(c.contacts_from_clip);  // allowed_contacts: auto
+  EXPECT_TRUE(c.allowed_contacts.empty());
   EXPECT_EQ(c.max_root_distance, 1.0);
   EXPECT_EQ(c.joint_weights.size(), 12u);
   EXPECT_EQ(c.joint_weights.at("chest"), 0.5);
@@ -78,7 +79,9 @@ TEST(EnvConfig, ReadsEveryKey) {
   EXPECT_EQ(c.offset_scale, 0.25);
   EXPECT_FALSE(c.random_start);
   EXPECT_EQ(c.start_phase, 0.5);
-  EXPECT_EQ(c.allowed_contacts.size(), 3u);
+  EXPECT_FALSE(c.contacts_from_clip);
+  EXPECT_EQ(c.allowed_contacts,
+            (std::vector<std::string>{"right_ankle", "left_ankle", "right_wrist"}));
   EXPECT_EQ(c.max_root_distance, 0.5);
   EXPECT_EQ(c.joint_weights.at("neck"), 0);
   EXPECT_EQ(c.joint_weights.at("chest"), 1.5);
@@ -93,6 +96,10 @@ TEST(EnvConfig, ReadsEveryKey) {
 TEST(EnvConfig, BadValuesNameTheKey) {
   EXPECT_EQ(ReadError("motion: walk.json\nsubsteps: -2\n"),
             "env.yaml:2: substeps: must be at least 1");
+  EXPECT_TRUE(Read("motion: walk.json\nallowed_contacts: auto\n").contacts_from_clip);
+  EXPECT_THAT(ReadError("motion: walk.json\nallowed_contacts: feet\n"),
+              HasSubstr("env.yaml:2: allowed_contacts: expected 'auto' (the bodies the clip puts "
+                        "on the floor) or a list of bodies"));
   EXPECT_EQ(ReadError("motion: walk.json\nsubsteps: 0\n"),
             "env.yaml:2: substeps: must be at least 1");
   EXPECT_EQ(ReadError("motion: walk.json\naction_mode: foo\n"),

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <random>
 
+#include "actor/sim/clip_report.h"
 #include "actor/sim/motion_io.h"
 
 namespace ragdoll::sim {
@@ -279,8 +280,116 @@ TEST_F(ImitationEnvTest, SameSeedGivesBitIdenticalRollouts) {
 }
 
 TEST_F(ImitationEnvTest, RejectsNamesTheCharacterLacks) {
+  config_.contacts_from_clip = false;
   config_.allowed_contacts = {"right_ankle", "tail"};
   EXPECT_THROW(Make(Walk()), std::exception);
+}
+
+// --- contacts from the clip (`allowed_contacts: auto`) ---
+
+// On hands and knees, rocking forward and back: the trunk facing +x, raised at the front by
+// asin((arm - thigh) / trunk) = asin((0.574 - 0.47) / 0.48) = 0.22 rad so that hands and knees
+// both reach the floor, thighs and arms vertical, knees bent past 90 degrees so that the shins
+// rise behind and the feet stay in the air. Placed with its lowest point on the floor.
+std::shared_ptr<const MotionClip> CrawlClip(const Character& character) {
+  std::vector<Pose> frames;
+  for (double rock : {0.0, 0.12, 0.0, -0.12, 0.0}) {
+    Pose p;
+    const double pitch = M_PI / 2 - 0.22;
+    p.root_rotation = AxisAngle({0, 1, 0}, pitch);
+    p.joint_rotations.assign(12, kIdentityQuat);
+    for (int hip : {2, 7}) p.joint_rotations[hip] = AxisAngle({0, 1, 0}, -pitch + rock);
+    for (int knee : {3, 8}) p.joint_rotations[knee] = AxisAngle({0, 1, 0}, 2.0);
+    for (int shoulder : {5, 10}) p.joint_rotations[shoulder] = AxisAngle({0, 1, 0}, -pitch - rock);
+    p.joint_rotations[1] = AxisAngle({0, 1, 0}, -0.6);  // head up, looking ahead
+    p.root_position = {0, 0, 0};
+    p.root_position[2] = -character.LowestPoint(p);
+    frames.push_back(p);
+  }
+  return std::make_shared<const MotionClip>("crawl", true, std::vector<double>(5, 0.5), frames);
+}
+
+TEST_F(ImitationEnvTest, AutoContactsAreTheBodiesTheClipPutsOnTheFloor) {
+  auto character = Character::Load(config_.character, config_.physics_dt());
+  auto crawl = CrawlClip(*character);
+  // Hands and knees from the clip; the feet, in the air here, are always allowed.
+  EXPECT_EQ(ClipGroundContacts(*crawl, *character),
+            (std::vector<std::string>{"right_knee", "right_ankle", "right_wrist", "left_knee",
+                                      "left_ankle", "left_wrist"}));
+  ClipReport report = InspectClip(*crawl, *character);
+  ASSERT_EQ(report.ground_contacts.size(), 4u);
+  EXPECT_EQ(report.ground_contacts[0].first, "right_knee");
+  EXPECT_EQ(report.ground_contacts[0].second, 1.0);  // every frame
+  // The walk puts only its feet down.
+  EXPECT_EQ(ClipGroundContacts(*Walk(), *character),
+            (std::vector<std::string>{"right_ankle", "left_ankle"}));
+}
+
+TEST_F(ImitationEnvTest, CrawlRunsUnderAutoContactsAndEndsAtOnceWithFeetOnly) {
+  auto character = Character::Load(config_.character, config_.physics_dt());
+  auto crawl = CrawlClip(*character);
+  config_.action_mode = ActionMode::kOffset;
+  config_.max_episode_steps = 150;
+  // The reference-PD baseline: PD targets on the reference pose, from random phases.
+  auto baseline = [&](uint64_t seed) {
+    ImitationEnv env(character, crawl, config_, seed);
+    std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size);
+    double steps = 0;
+    const int episodes = 5;
+    for (int e = 0; e < episodes; ++e) {
+      env.Reset(obs.data());
+      for (;;) {
+        env.ReferenceAction(action.data());
+        StepResult r = env.Step(action.data(), obs.data());
+        if (r.terminated || r.truncated) break;
+      }
+      steps += env.episode().length;
+    }
+    return steps / episodes;
+  };
+  double with_auto = baseline(3);
+  config_.contacts_from_clip = false;
+  config_.allowed_contacts = {"right_ankle", "left_ankle"};
+  double feet_only = baseline(3);
+  EXPECT_GT(with_auto, 60);  // more than two seconds on hands and knees
+  EXPECT_LE(feet_only, 2);
+}
+
+TEST_F(ImitationEnvTest, CrawlStillEndsWhenTheHeadHitsTheFloor) {
+  auto character = Character::Load(config_.character, config_.physics_dt());
+  auto crawl = CrawlClip(*character);
+  config_.action_mode = ActionMode::kAbsolute;
+  config_.random_start = false;
+  ImitationEnv env(character, crawl, config_, 1);
+  std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size);
+  env.Reset(obs.data());
+  // The arms swing back off the floor (shoulders driven to full extension) and a push on the head
+  // (150 N, down) brings it to the floor, which the crawl never puts there.
+  const mjModel* m = character->model();
+  const int head = character->BodyId("neck");
+  env.SetExternalForce(head, {0, 0, -150});
+  StepResult r;
+  int steps = 0;
+  while (!r.terminated && !r.truncated && steps < 30) {
+    env.ReferenceAction(action.data());
+    for (size_t i = 0; i < character->hinges().size(); ++i) {
+      const std::string& name = character->hinges()[i].name;
+      if (name == "right_shoulder_y" || name == "left_shoulder_y") action[i] = 1;
+    }
+    r = env.Step(action.data(), obs.data());
+    ++steps;
+  }
+  EXPECT_TRUE(r.terminated);
+  EXPECT_EQ(env.episode().end, EpisodeEnd::kFell);
+  EXPECT_LT(steps, 30);
+  // It was the head (the neck body's geometry) that touched.
+  const mjData& d = env.data();
+  bool head_down = false;
+  for (int i = 0; i < d.ncon; ++i) {
+    head_down |=
+        m->geom_bodyid[d.contact[i].geom1] == head || m->geom_bodyid[d.contact[i].geom2] == head;
+  }
+  EXPECT_TRUE(head_down);
 }
 
 }  // namespace

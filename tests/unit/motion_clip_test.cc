@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -106,6 +107,50 @@ TEST_P(DeepMimicClips, HaveTheirFrameCountDurationAndLoop) {
   EXPECT_EQ(clip.frame(0).joint_rotations.size(), Humanoid3dJoints().size());
   // Looping clips move only horizontally from cycle to cycle.
   EXPECT_EQ(clip.cycle_displacement()[2], 0.0);
+}
+
+// DeepMimic's published library carries rotations whose norms are off by up to ~15 %; they are
+// normalised on reading, as DeepMimic does. A copy of each clip with every quaternion scaled to
+// norm `scale` loads into the same clip and reports what it renormalised.
+void ExpectLoadsDenormalised(const std::string& name, double scale) {
+  std::ifstream in(kDeepMimicMotions + name + ".txt");
+  nlohmann::json doc = nlohmann::json::parse(in);
+  int quaternions = 0;
+  for (auto& frame : doc["Frames"]) {
+    auto scale_at = [&](size_t k) {
+      double norm = 0;
+      for (size_t c = 0; c < 4; ++c)
+        norm += frame[k + c].get<double>() * frame[k + c].get<double>();
+      for (size_t c = 0; c < 4; ++c)
+        frame[k + c] = frame[k + c].get<double>() * scale / std::sqrt(norm);
+      ++quaternions;
+    };
+    scale_at(4);  // root rotation
+    size_t k = 8;
+    for (const auto& joint : Humanoid3dJoints()) {
+      if (joint.type == JointType::kSpherical) {
+        scale_at(k);
+        k += 4;
+      } else {
+        k += 1;
+      }
+    }
+  }
+  MotionClip original = LoadDeepMimic(name);
+  MotionClip scaled = ParseMotion(doc.dump(), name + "_scaled.txt");
+  EXPECT_EQ(original.renormalized_rotations(), 0) << name;
+  EXPECT_LT(original.max_norm_deviation(), 2e-6) << name;
+  EXPECT_EQ(scaled.renormalized_rotations(), quaternions) << name;
+  EXPECT_NEAR(scaled.max_norm_deviation(), std::abs(scale - 1), 1e-12) << name;
+  ASSERT_EQ(scaled.num_frames(), original.num_frames());
+  for (int f = 0; f < original.num_frames(); ++f) {
+    ExpectPoseNear(scaled.frame(f), original.frame(f), 1e-12,
+                   name + " x" + std::to_string(scale) + " frame " + std::to_string(f));
+  }
+}
+
+TEST_P(DeepMimicClips, LoadWithDenormalisedRotations) {
+  for (double scale : {0.85, 1.06}) ExpectLoadsDenormalised(GetParam().name, scale);
 }
 
 INSTANTIATE_TEST_SUITE_P(All, DeepMimicClips,
@@ -321,10 +366,20 @@ TEST(MotionClip, RejectsInvalidFramesNamingFrameAndField) {
               HasSubstr("frame 1: duration must be positive"));
   EXPECT_THAT(InvalidClipMessage({NAN, 0.1}, {rest, rest}),
               HasSubstr("frame 0: duration must be positive"));
-  Pose bent = rest;
-  bent.joint_rotations[9] = {1, 0, 0.5, 0};  // norm 1.118
-  EXPECT_THAT(InvalidClipMessage({0.1, 0.1}, {rest, bent}),
-              HasSubstr("frame 1: left_ankle: quaternion is not unit length"));
+  Pose degenerate = rest;
+  degenerate.joint_rotations[9] = {0, 0, 0, 0};
+  EXPECT_THAT(InvalidClipMessage({0.1, 0.1}, {rest, degenerate}),
+              HasSubstr("frame 1: left_ankle: quaternion norm 0.000000 is too far from 1"));
+  degenerate.joint_rotations[9] = {2, 0, 0.5, 0};  // norm 2.06
+  EXPECT_THAT(InvalidClipMessage({0.1, 0.1}, {rest, degenerate}),
+              HasSubstr("frame 1: left_ankle: quaternion norm 2.061553 is too far from 1"));
+  degenerate.joint_rotations[9] = {1, NAN, 0, 0};
+  EXPECT_THAT(InvalidClipMessage({0.1, 0.1}, {degenerate, rest}),
+              HasSubstr("frame 0: left_ankle: quaternion is not finite"));
+  degenerate = rest;
+  degenerate.root_rotation = {INFINITY, 0, 0, 0};
+  EXPECT_THAT(InvalidClipMessage({0.1, 0.1}, {rest, degenerate}),
+              HasSubstr("frame 1: root rotation: quaternion is not finite"));
   Pose short_pose = rest;
   short_pose.joint_rotations.pop_back();
   EXPECT_THAT(InvalidClipMessage({0.1, 0.1}, {short_pose, rest}),
@@ -424,14 +479,14 @@ TEST(DeepMimicFormat, RejectsMalformedFramesNamingFrameAndField) {
   EXPECT_THAT(ParseError(DeepMimicText({rest, short_frame}), "bad.txt"),
               HasSubstr("bad.txt: frame 1: expected 44 values per frame, got 43"));
 
-  std::vector<double> bent = rest;
-  bent[DeepMimicIndex("left_hip") + 1] = 0.5;  // (1, 0.5, 0, 0): norm 1.118
-  EXPECT_THAT(ParseError(DeepMimicText({rest, bent, rest}), "bad.txt"),
-              HasSubstr("bad.txt: frame 1: left_hip: quaternion is not unit length"));
-  std::vector<double> tilted = rest;
-  tilted[4] = 0.9;  // root rotation (0.9, 0, 0, 0)
-  EXPECT_THAT(ParseError(DeepMimicText({tilted, rest}), "bad.txt"),
-              HasSubstr("bad.txt: frame 0: root rotation: quaternion is not unit length"));
+  std::vector<double> zero = rest;
+  for (int k = 0; k < 4; ++k) zero[DeepMimicIndex("left_hip") + k] = 0;
+  EXPECT_THAT(ParseError(DeepMimicText({rest, zero, rest}), "bad.txt"),
+              HasSubstr("bad.txt: frame 1: left_hip: quaternion norm 0.000000 is too far from 1"));
+  std::vector<double> scaled = rest;
+  scaled[4] = 1.6;  // root rotation (1.6, 0, 0, 0)
+  EXPECT_THAT(ParseError(DeepMimicText({scaled, rest}), "bad.txt"),
+              HasSubstr("bad.txt: frame 0: root rotation: quaternion norm 1.600000 is too far"));
 
   std::vector<double> still = rest;
   still[0] = 0;
@@ -499,8 +554,8 @@ TEST(ProjectFormat, RejectsMalformedClipsNamingFileFrameAndField) {
               HasSubstr("tiny.json: frame 1: rotations: neck: expected a number, got null"));
   EXPECT_THAT(ParseError(Replace(tiny, "[0.8, 0, 0.6, 0]", "[0.8, 0, 0.6]"), "tiny.json"),
               HasSubstr("tiny.json: frame 1: rotations: right_knee: expected 4 numbers"));
-  EXPECT_THAT(ParseError(Replace(tiny, "[0.6, 0.8, 0, 0]", "[0.6, 0.6, 0, 0]"), "tiny.json"),
-              HasSubstr("tiny.json: frame 1: neck: quaternion is not unit length"));
+  EXPECT_THAT(ParseError(Replace(tiny, "[0.6, 0.8, 0, 0]", "[0, 0, 0, 0]"), "tiny.json"),
+              HasSubstr("tiny.json: frame 1: neck: quaternion norm 0.000000 is too far from 1"));
   EXPECT_THAT(
       ParseError(Replace(tiny, "\"frame_duration\": 0.5", "\"frame_duration\": 0"), "tiny.json"),
       HasSubstr("tiny.json: frame_duration: must be positive"));
