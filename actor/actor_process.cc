@@ -59,13 +59,17 @@ struct ActorMetrics {
                              "Reconnections to the broker after the first connection")),
         connected(m.Gauge("ragdoll_actor_connected",
                           "1 while the trajectory socket is connected to the broker")),
-        environments(m.Gauge("ragdoll_actor_environments", "Environments stepped in lockstep")) {
+        environments(m.Gauge("ragdoll_actor_environments", "Environments stepped in lockstep")),
+        idle_seconds(m.Counter("ragdoll_actor_idle_seconds_total",
+                               "Wall time spent waiting: for the first snapshot, or for the "
+                               "broker to take a segment (backpressure)")) {
     version.Set(-1);
   }
   prometheus::Counter &samples, &segments, &sent_bytes, &episodes;
   prometheus::Gauge& version;
   prometheus::Counter &swaps, &rejected, &reconnects;
   prometheus::Gauge &connected, &environments;
+  prometheus::Counter& idle_seconds;
 };
 
 }  // namespace
@@ -124,6 +128,7 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
   };
 
   // Wait for the first snapshot: ask the broker, back off up to 5 s, say so in the log.
+  const auto started = Clock::now();
   double backoff = 0.25;
   int attempts = 0;
   while (!stop.load() && !worker.has_policy()) {
@@ -153,6 +158,8 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
                  config.environments, static_cast<long long>(worker.policy_version()));
   }
 
+  double idle_seconds = Since(started);
+  metrics.idle_seconds.Increment(idle_seconds);
   auto last_heartbeat = Clock::now();
   int64_t dropped_segments = 0;
   while (!stop.load()) {
@@ -165,9 +172,13 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       // Blocks (1 s at a time) while the broker's queue is full: backpressure from a busy
       // learner. Segments that cannot leave before a stop are dropped.
       bool sent = false;
+      const auto send_start = Clock::now();
       while (!stop.load() && !sent) {
         sent = Send(push, zmq::buffer(message));
       }
+      const double waited = Since(send_start);
+      idle_seconds += waited;
+      metrics.idle_seconds.Increment(waited);
       if (sent) {
         metrics.segments.Increment();
         metrics.sent_bytes.Increment(static_cast<double>(message.size()));
@@ -194,9 +205,12 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
       Send(control, zmq::buffer(message), zmq::send_flags::dontwait);
     }
   }
-  std::fprintf(stderr, "%s: stopped after %lld samples (%lld segments dropped at shutdown)\n",
+  std::fprintf(stderr,
+               "%s: stopped after %lld samples (%lld segments dropped at shutdown); idle %.1f %% "
+               "of %.0f s\n",
                config.actor_id.c_str(), static_cast<long long>(worker.samples()),
-               static_cast<long long>(dropped_segments));
+               static_cast<long long>(dropped_segments), 100 * idle_seconds / Since(started),
+               Since(started));
   return 0;
 }
 

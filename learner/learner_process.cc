@@ -81,7 +81,9 @@ struct LearnerMetrics {
                         {0, 1, 2, 3, 5, 10, 20})),
         stale(m.Counter("ragdoll_learner_stale_segments_dropped_total",
                         "Segments dropped for exceeding max_policy_lag")),
-        checkpoints(m.Counter("ragdoll_learner_checkpoints_total", "Checkpoints written")) {
+        checkpoints(m.Counter("ragdoll_learner_checkpoints_total", "Checkpoints written")),
+        idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
+                               "Wall time spent waiting for segments (nothing to do)")) {
     for (const char* term : {"rotation", "velocity", "end_effector", "com", "root"}) {
       terms.push_back(&m.Gauge("ragdoll_episode_reward_term",
                                "Mean per-step value (0..1) of one imitation reward term, last "
@@ -104,7 +106,7 @@ struct LearnerMetrics {
   prometheus::Counter &skipped_steps, &samples;
   prometheus::Gauge &run_samples, &samples_per_second, &version;
   prometheus::Histogram& lag;
-  prometheus::Counter &stale, &checkpoints;
+  prometheus::Counter &stale, &checkpoints, &idle_seconds;
   std::vector<prometheus::Gauge*> terms;
   std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
 };
@@ -184,7 +186,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     csv << "iteration,version,samples,elapsed_s,samples_per_s,episodes,mean_return,"
            "normalized_return,episode_length,fall_rate,rotation,velocity,end_effector,com,root,"
            "policy_loss,value_loss,entropy,approx_kl,clip_fraction,explained_variance,"
-           "learning_rate,update_s,stale_dropped,rejected\n";
+           "learning_rate,update_s,stale_dropped,rejected,idle_fraction\n";
   }
 
   const auto start = Clock::now();
@@ -202,9 +204,16 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     }
   };
 
+  // Time spent blocked waiting for a segment: the learner's idle time, per iteration.
+  double idle_seconds = 0;
   while (!stop.load() && learner.samples() < trainer.max_steps) {
     zmq::message_t message;
-    if (Receive(pull, message)) {
+    const auto wait_start = Clock::now();
+    const bool received = Receive(pull, message);
+    const double waited = std::chrono::duration<double>(Clock::now() - wait_start).count();
+    idle_seconds += waited;
+    metrics.idle_seconds.Increment(waited);
+    if (received) {
       v1::Header header;
       v1::TrajectorySegment segment;
       wire::Verdict v = wire::ReadMessage(message.data(), message.size(),
@@ -238,15 +247,17 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       double iteration_s = std::chrono::duration<double>(Clock::now() - last_iteration).count();
       last_iteration = Clock::now();
       double rate = (learner.samples() - start_samples) / std::max(elapsed, 1e-9);
+      const double idle_fraction = idle_seconds / std::max(iteration_s, 1e-9);
+      idle_seconds = 0;
       double eta = (trainer.max_steps - learner.samples()) / std::max(rate, 1e-9);
       std::printf(
           "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  "
-          "v%lld  kl %.4f  elapsed %s  eta %s\n",
+          "v%lld  kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
           config.label.c_str(), static_cast<long long>(learner.iterations()),
           static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
           e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
-          static_cast<long long>(learner.version()), u.approx_kl, Duration(elapsed).c_str(),
-          Duration(eta).c_str());
+          static_cast<long long>(learner.version()), u.approx_kl, 100 * idle_fraction,
+          Duration(elapsed).c_str(), Duration(eta).c_str());
       std::fflush(stdout);
       metrics.episode_return.Set(e.Mean(e.episode_return));
       metrics.normalized_return.Set(e.Mean(e.normalized_return));
@@ -277,7 +288,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
           << e.Mean(e.root) << "," << u.policy_loss << "," << u.value_loss << "," << u.entropy
           << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
           << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
-          << rejected_total << "\n";
+          << rejected_total << "," << idle_fraction << "\n";
       csv.flush();
       learner.ResetEpisodeStats();
       if (learner.samples() >= next_checkpoint) {
