@@ -1,12 +1,14 @@
 // ragdoll: one binary for every role.
 //   ragdoll train CONFIG         broker + learner + actors on this machine
 //   ragdoll broker|learner|actor CONFIG   one role, for distributed runs
-//   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out
+//   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out (and RUN/eval.json)
 //   ragdoll render [RUN_OR_CHECKPOINT] --clip CLIP --out FILE.mp4|.gif|.png
 //   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
+//   ragdoll report RUN [RUN ...] --out FILE.html   curves, evaluation and a GIF of runs, one page
 #include <signal.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <atomic>
 #include <cstdio>
@@ -22,6 +24,7 @@
 #include "cli/launcher.h"
 #include "cli/motion_commands.h"
 #include "cli/render_command.h"
+#include "cli/report_command.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 #include "learner/learner.h"
@@ -125,12 +128,14 @@ int main(int argc, char** argv) {
 
   std::function<int()> motion = cli::AddMotionCommands(app);
   std::function<int()> render = cli::AddRenderCommand(app, argc, argv);
+  std::function<int()> report = cli::AddReportCommand(app);
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {
     if (*train_cmd) return cli::RunTrain(train, g_stop);
     if (int code = motion(); code >= 0) return code;
     if (int code = render(); code >= 0) return code;
+    if (int code = report(); code >= 0) return code;
 
     if (*eval_cmd) {
       cli::TrainedPolicy policy = cli::LoadTrainedPolicy(eval_target);
@@ -141,7 +146,12 @@ int main(int argc, char** argv) {
         robustness = std::make_unique<actor::RobustnessResult>(
             actor::EvaluatePushes(env, policy.snapshot, push, eval_seed));
       }
-      std::string json = r.ToJson(robustness.get());
+      // Which checkpoint was evaluated goes with the figures (`ragdoll report` shows it).
+      nlohmann::json result = nlohmann::json::parse(r.ToJson(robustness.get()));
+      result["checkpoint"] = policy.checkpoint;
+      result["policy_version"] = policy.version;
+      result["samples"] = policy.samples;
+      const std::string json = result.dump(2);
       std::cout << json << "\n";
       std::fprintf(stderr,
                    "%s (policy v%lld, %lld samples): normalised return %.3f, length %.1f steps, "
@@ -151,6 +161,18 @@ int main(int argc, char** argv) {
                    r.fall_rate, r.episodes);
       if (robustness) std::fprintf(stderr, "%s", robustness->ToTable().c_str());
       if (!json_out.empty()) std::ofstream(json_out) << json << "\n";
+      // A run folder keeps its latest evaluation, written whole or not at all.
+      if (std::filesystem::is_directory(eval_target)) {
+        const auto path = std::filesystem::path(eval_target) / "eval.json";
+        const auto temporary = std::filesystem::path(path.string() + ".tmp");
+        {
+          std::ofstream out(temporary);
+          out << json << "\n";
+          if (!out.flush()) throw std::runtime_error(temporary.string() + ": cannot write");
+        }
+        std::filesystem::rename(temporary, path);
+        std::fprintf(stderr, "wrote %s\n", path.c_str());
+      }
       return 0;
     }
 

@@ -23,6 +23,10 @@ packages=(
   libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg
   # integration tests: a real Prometheus server, queried over HTTP from the shell
   prometheus curl jq
+  # `ragdoll report --png`: rsvg-convert rasterises the curves' SVG
+  librsvg2-bin
+  # the report's integration test opens the page in headless Chromium
+  chromium
   # the container end-to-end test: Podman runs deploy/docker-compose.yml (no Docker engine
   # needed), on a Debian base image built locally with debootstrap
   podman podman-compose runc netavark aardvark-dns iptables debootstrap

@@ -1,0 +1,879 @@
+#include "cli/report.h"
+
+#include <yaml-cpp/yaml.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "common/config_section.h"
+
+namespace ragdoll::cli {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string Trim(const std::string& s) {
+  size_t a = s.find_first_not_of(" \t\r");
+  if (a == std::string::npos) return "";
+  size_t b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
+std::vector<std::string> SplitCells(const std::string& line) {
+  std::vector<std::string> cells;
+  size_t start = 0;
+  while (true) {
+    size_t comma = line.find(',', start);
+    cells.push_back(Trim(line.substr(start, comma - start)));
+    if (comma == std::string::npos) return cells;
+    start = comma + 1;
+  }
+}
+
+// A whole cell as a number; "nan" and "inf" (what iostreams write for them) included.
+bool ParseNumber(const std::string& cell, double* value) {
+  if (cell.empty()) return false;
+  char* end = nullptr;
+  *value = std::strtod(cell.c_str(), &end);
+  return end == cell.c_str() + cell.size();
+}
+
+std::string Format(const char* format, double value) {
+  char text[64];
+  std::snprintf(text, sizeof(text), format, value);
+  return text;
+}
+
+std::string Escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&#39;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// 1 234 567, as the README writes figures.
+std::string Count(int64_t n) {
+  std::string digits = std::to_string(n < 0 ? -n : n), out;
+  for (size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) out += ' ';
+    out += digits[i];
+  }
+  return n < 0 ? "-" + out : out;
+}
+
+// H:MM:SS, as the progress line writes elapsed time.
+std::string Clock(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "—";
+  const long s = std::lround(seconds);
+  char text[32];
+  std::snprintf(text, sizeof(text), "%ld:%02ld:%02ld", s / 3600, s / 60 % 60, s % 60);
+  return text;
+}
+
+// --- the curves ---------------------------------------------------------------------------------
+
+struct CurveSpec {
+  const char* column;
+  const char* title;
+  const char* y_label;
+  double y_max;  // a bounded quantity's fixed top; NaN: from the data
+};
+
+// Every quantity is an episode statistic: rows without finished episodes have none.
+const CurveSpec kCurves[] = {
+    {"normalized_return", "normalised return (1 = reference followed for the whole episode)",
+     "normalised return", 1.0},
+    {"fall_rate", "fall rate (episodes ended by a fall)", "fraction of episodes", 1.0},
+    {"episode_length", "episode length", "control steps", kNaN},
+    {"rotation", "reward term: rotation (joint rotations)", "per-step mean, 0-1", 1.0},
+    {"velocity", "reward term: velocity (joint velocities)", "per-step mean, 0-1", 1.0},
+    {"end_effector", "reward term: end_effector (hands and feet)", "per-step mean, 0-1", 1.0},
+    {"com", "reward term: com (centre of mass)", "per-step mean, 0-1", 1.0},
+    {"root", "reward term: root (root pose and velocity)", "per-step mean, 0-1", 1.0},
+};
+
+// The SVG's layout, px. Each plot sits in a cell; two cells a row (samples, wall time).
+constexpr double kSvgWidth = 1200;
+constexpr double kCellWidth = 600, kCellHeight = 250;
+constexpr double kPlotLeft = 70, kPlotRight = 576, kPlotTop = 34, kPlotBottom = 200;
+constexpr double kLegendRow = 24, kLegendTop = 10, kHeadingRow = 30;
+constexpr int kMarkersUpTo = 40;  // few points: draw each one, so a short run still shows
+
+struct Axis {
+  double top = 1, step = 0.2;
+};
+
+// Axis from 0 to the lowest round top: steps of 1, 2 or 5 times a power of ten, at most 7.
+Axis RoundAxis(double max) {
+  if (!std::isfinite(max) || max <= 0) return {};
+  const double magnitude = std::pow(10.0, std::floor(std::log10(max)) - 1);
+  for (double step : {magnitude, 2 * magnitude, 5 * magnitude, 10 * magnitude, 20 * magnitude}) {
+    const double intervals = std::ceil(max / step - 1e-9);
+    if (intervals <= 7) return {intervals * step, step};
+  }
+  return {max, max};  // not reached: 20 magnitudes span at least max
+}
+
+// A tick's label with as many decimals as the step needs.
+std::string TickLabel(double value, double step) {
+  if (value == 0) return "0";
+  int decimals = 0;
+  while (decimals < 6) {
+    const double scaled = step * std::pow(10.0, decimals);
+    if (std::fabs(scaled - std::round(scaled)) < 1e-6 * std::max(1.0, scaled)) break;
+    ++decimals;
+  }
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
+// How an x axis is shown: values divided by `scale`, ticks suffixed, the axis titled.
+struct XAxisUnit {
+  std::string axis;  // "samples" or "wall_time" (the column of the plot)
+  double scale = 1;
+  std::string suffix, label, unit;
+};
+
+XAxisUnit SamplesUnit(double max) {
+  if (max >= 1e6) return {"samples", 1e6, "M", "samples", "samples"};
+  if (max >= 1e4) return {"samples", 1e3, "k", "samples", "samples"};
+  return {"samples", 1, "", "samples", "samples"};
+}
+
+XAxisUnit WallTimeUnit(double max_seconds) {
+  if (max_seconds <= 300) return {"wall_time", 1, "", "wall time (s)", "s"};
+  if (max_seconds <= 5 * 3600) return {"wall_time", 60, "", "wall time (min)", "min"};
+  return {"wall_time", 3600, "", "wall time (h)", "h"};
+}
+
+// One run's points for one quantity, split where x goes back (a restart from an older
+// checkpoint) so that the line does not run backwards across the plot.
+std::vector<std::vector<std::pair<double, double>>> Segments(const std::vector<double>& x,
+                                                             const std::vector<double>& y,
+                                                             const std::vector<double>* episodes) {
+  std::vector<std::vector<std::pair<double, double>>> segments(1);
+  double last_x = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < x.size() && i < y.size(); ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    if (episodes && !((*episodes)[i] > 0)) continue;
+    if (x[i] < last_x && !segments.back().empty()) segments.emplace_back();
+    segments.back().emplace_back(x[i], y[i]);
+    last_x = x[i];
+  }
+  if (segments.back().empty()) segments.pop_back();
+  return segments;
+}
+
+struct RunCurves {
+  std::vector<double> samples, wall_time;
+  const std::vector<double>* episodes = nullptr;
+};
+
+RunCurves CurvesOf(const RunReport& run) {
+  RunCurves c;
+  if (const auto* s = run.metrics.Column("samples")) c.samples = *s;
+  if (const auto* e = run.metrics.Column("elapsed_s")) c.wall_time = CumulativeWallTime(*e);
+  c.episodes = run.metrics.Column("episodes");
+  return c;
+}
+
+double MaxFinite(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v)
+    if (std::isfinite(x)) m = std::max(m, x);
+  return m;
+}
+
+// One plot: frame, grid, ticks, titles and every run's lines, as a <g> placed at (ox, oy).
+void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const XAxisUnit& unit,
+          const Axis& x_axis, const std::vector<RunReport>& runs,
+          const std::vector<RunCurves>& curves) {
+  // The y axis: the quantity's bound, or the data's largest value.
+  double y_data_max = 0;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    if (const auto* y = runs[r].metrics.Column(spec.column)) {
+      for (const auto& segment :
+           Segments(unit.axis == "samples" ? curves[r].samples : curves[r].wall_time, *y,
+                    curves[r].episodes)) {
+        for (const auto& p : segment) y_data_max = std::max(y_data_max, p.second);
+      }
+    }
+  }
+  const Axis y_axis = std::isfinite(spec.y_max) && y_data_max <= spec.y_max
+                          ? Axis{spec.y_max, spec.y_max / 5}
+                          : RoundAxis(y_data_max);
+  auto px = [&](double x) { return kPlotLeft + x / x_axis.top * (kPlotRight - kPlotLeft); };
+  auto py = [&](double y) { return kPlotBottom - y / y_axis.top * (kPlotBottom - kPlotTop); };
+  // The hover readout gives samples in full and wall time in the axis' unit.
+  const double readout_max = unit.axis == "samples" ? x_axis.top * unit.scale : x_axis.top;
+
+  svg += "<g class=\"panel\" transform=\"translate(" + Format("%g", ox) + "," + Format("%g", oy) +
+         ")\" data-metric=\"" + spec.column + "\" data-axis=\"" + unit.axis + "\" data-title=\"" +
+         Escape(spec.title) + "\" data-x-unit=\"" + unit.unit + "\" data-x-max=\"" +
+         Format("%.10g", readout_max) + "\" data-y-max=\"" + Format("%.10g", y_axis.top) +
+         "\" data-left=\"" + Format("%g", kPlotLeft) + "\" data-right=\"" +
+         Format("%g", kPlotRight) + "\" data-top=\"" + Format("%g", kPlotTop) +
+         "\" data-bottom=\"" + Format("%g", kPlotBottom) + "\">\n";
+  svg += "<text x=\"" + Format("%g", kPlotLeft) + "\" y=\"20\" font-size=\"13\" fill=\"#222\">" +
+         Escape(spec.title) + "</text>\n";
+  // Grid and ticks.
+  for (int i = 0; i * y_axis.step <= y_axis.top * (1 + 1e-9); ++i) {
+    const double v = i * y_axis.step, y = py(v);
+    svg += "<line x1=\"" + Format("%g", kPlotLeft) + "\" x2=\"" + Format("%g", kPlotRight) +
+           "\" y1=\"" + Format("%.1f", y) + "\" y2=\"" + Format("%.1f", y) +
+           "\" stroke=\"#e4e4e4\"/>" + "<text x=\"" + Format("%g", kPlotLeft - 6) + "\" y=\"" +
+           Format("%.1f", y + 4) + "\" font-size=\"11\" fill=\"#444\" text-anchor=\"end\">" +
+           TickLabel(v, y_axis.step) + "</text>\n";
+  }
+  for (int i = 0; i * x_axis.step <= x_axis.top * (1 + 1e-9); ++i) {
+    const double v = i * x_axis.step, x = px(v);
+    svg += "<line x1=\"" + Format("%.1f", x) + "\" x2=\"" + Format("%.1f", x) + "\" y1=\"" +
+           Format("%g", kPlotTop) + "\" y2=\"" + Format("%g", kPlotBottom) +
+           "\" stroke=\"#e4e4e4\"/>" + "<text x=\"" + Format("%.1f", x) + "\" y=\"" +
+           Format("%g", kPlotBottom + 16) +
+           "\" font-size=\"11\" fill=\"#444\" text-anchor=\"middle\">" + TickLabel(v, x_axis.step) +
+           (v > 0 ? unit.suffix : "") + "</text>\n";
+  }
+  svg += "<rect class=\"frame\" x=\"" + Format("%g", kPlotLeft) + "\" y=\"" +
+         Format("%g", kPlotTop) + "\" width=\"" + Format("%g", kPlotRight - kPlotLeft) +
+         "\" height=\"" + Format("%g", kPlotBottom - kPlotTop) +
+         "\" fill=\"#ffffff\" fill-opacity=\"0\" stroke=\"#999\"/>\n";
+  svg += "<text x=\"" + Format("%g", (kPlotLeft + kPlotRight) / 2) + "\" y=\"" +
+         Format("%g", kPlotBottom + 36) +
+         "\" font-size=\"12\" fill=\"#333\" text-anchor=\"middle\">" + unit.label + "</text>\n";
+  const double mid = (kPlotTop + kPlotBottom) / 2;
+  svg += "<text x=\"18\" y=\"" + Format("%g", mid) +
+         "\" font-size=\"12\" fill=\"#333\" text-anchor=\"middle\" transform=\"rotate(-90 18 " +
+         Format("%g", mid) + ")\">" + spec.y_label + "</text>\n";
+
+  // The runs, in order: a later run is drawn over an earlier one.
+  std::vector<std::string> missing;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const auto* y = runs[r].metrics.Column(spec.column);
+    const auto& x = unit.axis == "samples" ? curves[r].samples : curves[r].wall_time;
+    auto segments = y ? Segments(x, *y, curves[r].episodes)
+                      : std::vector<std::vector<std::pair<double, double>>>{};
+    if (segments.empty()) {
+      missing.push_back(runs[r].id + (y ? ": no finished episodes yet" : ": not in metrics.csv"));
+      continue;
+    }
+    size_t points = 0;
+    for (const auto& s : segments) points += s.size();
+    const std::string attributes = " data-run=\"" + std::to_string(r) + "\" data-metric=\"" +
+                                   spec.column + "\" data-axis=\"" + unit.axis + "\"";
+    const std::string& colour = RunColour(r);
+    for (const auto& segment : segments) {
+      std::string coordinates;
+      for (const auto& p : segment) {
+        if (!coordinates.empty()) coordinates += ' ';
+        coordinates +=
+            Format("%.1f", px(p.first / unit.scale)) + "," + Format("%.1f", py(p.second));
+      }
+      svg += "<polyline" + attributes + " fill=\"none\" stroke=\"" + colour +
+             "\" stroke-width=\"1.8\" stroke-linejoin=\"round\" points=\"" + coordinates + "\"/>\n";
+      if (points <= kMarkersUpTo || segment.size() == 1) {
+        for (const auto& p : segment) {
+          svg += "<circle class=\"marker\"" + attributes + " cx=\"" +
+                 Format("%.1f", px(p.first / unit.scale)) + "\" cy=\"" +
+                 Format("%.1f", py(p.second)) + "\" r=\"2.2\" fill=\"" + colour + "\"/>\n";
+        }
+      }
+    }
+  }
+  for (size_t i = 0; i < missing.size(); ++i) {
+    svg += "<text x=\"" + Format("%g", kPlotRight - 6) + "\" y=\"" +
+           Format("%g", kPlotTop + 14 + 13 * static_cast<double>(i)) +
+           "\" font-size=\"11\" fill=\"#777\" text-anchor=\"end\">" + Escape(missing[i]) +
+           "</text>\n";
+  }
+  svg += "</g>\n";
+}
+
+// Flattens a YAML mapping into dotted keys and scalar (or flow-style list) values.
+void Flatten(const YAML::Node& node, const std::string& prefix,
+             std::map<std::string, std::string>* out) {
+  if (node.IsMap()) {
+    for (const auto& item : node) {
+      const std::string key = item.first.as<std::string>();
+      Flatten(item.second, prefix.empty() ? key : prefix + "." + key, out);
+    }
+  } else if (node.IsScalar()) {
+    (*out)[prefix] = node.as<std::string>();
+  } else if (node.IsSequence()) {
+    YAML::Emitter e;
+    e << YAML::Flow << node;
+    (*out)[prefix] = e.c_str();
+  } else {
+    (*out)[prefix] = "";
+  }
+}
+
+// The newest row with finished episodes, or -1.
+long LastEpisodeRow(const MetricsTable& m) {
+  const auto* norm = m.Column("normalized_return");
+  const auto* episodes = m.Column("episodes");
+  if (!norm) return -1;
+  for (long i = static_cast<long>(m.rows) - 1; i >= 0; --i) {
+    if (std::isfinite((*norm)[i]) && (!episodes || (*episodes)[i] > 0)) return i;
+  }
+  return -1;
+}
+
+double LastValue(const MetricsTable& m, const std::string& column) {
+  const auto* c = m.Column(column);
+  return c && m.rows > 0 ? c->back() : kNaN;
+}
+
+const char* kStyle = R"(
+body { font-family: "DejaVu Sans", system-ui, sans-serif; color: #222; margin: 24px auto;
+       max-width: 1240px; padding: 0 16px; }
+h1 { font-size: 22px; margin-bottom: 4px; }
+h2 { font-size: 17px; margin-top: 28px; border-bottom: 1px solid #ddd; padding-bottom: 4px; }
+p.sub, p.hint, footer { color: #666; font-size: 13px; }
+table { border-collapse: collapse; font-size: 13px; }
+th, td { padding: 4px 10px; border-bottom: 1px solid #eee; text-align: left; white-space: nowrap; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.wrap { white-space: normal; word-break: break-all; max-width: 420px; }
+.swatch { display: inline-block; width: 14px; height: 14px; border-radius: 3px;
+          vertical-align: middle; }
+.note { background: #fff7e0; border-left: 3px solid #e0b000; padding: 6px 10px; font-size: 13px; }
+code, pre { font-family: "DejaVu Sans Mono", monospace; font-size: 12px; }
+pre { background: #f6f6f6; padding: 8px; overflow-x: auto; }
+.gifs { display: flex; flex-wrap: wrap; gap: 16px; }
+figure { margin: 0; }
+figcaption { font-size: 12px; color: #444; max-width: 360px; }
+#curves svg .hidden { display: none; }
+#curves svg .legend-item { cursor: pointer; }
+#curves svg .legend-item.off { opacity: 0.3; }
+#readout { position: fixed; display: none; pointer-events: none; background: rgba(255,255,255,0.95);
+           border: 1px solid #aaa; border-radius: 4px; padding: 4px 8px; font-size: 12px; }
+)";
+
+// Legend toggles (click a run to hide or show it everywhere) and a hover readout of the values
+// under the pointer. It logs one line when set up, which the integration test looks for.
+const char* kScript = R"(
+(function () {
+  var svg = document.querySelector('#curves svg');
+  if (!svg) { console.log('ragdoll report: no curves'); return; }
+  var hidden = {};
+  function apply() {
+    svg.querySelectorAll('[data-run]').forEach(function (el) {
+      var off = hidden[el.getAttribute('data-run')] === true;
+      if (el.classList.contains('legend-item')) el.classList.toggle('off', off);
+      else el.classList.toggle('hidden', off);
+    });
+  }
+  svg.querySelectorAll('.legend-item').forEach(function (item) {
+    item.addEventListener('click', function () {
+      var run = item.getAttribute('data-run');
+      hidden[run] = !hidden[run];
+      apply();
+    });
+  });
+  function runName(run) {
+    var t = svg.querySelector('.legend-item[data-run="' + run + '"] text');
+    return t ? t.textContent : 'run ' + run;
+  }
+  function short(v) { return Math.abs(v) >= 1000 ? Math.round(v).toString() : v.toPrecision(3); }
+  var readout = document.getElementById('readout');
+  var panels = svg.querySelectorAll('g.panel');
+  var lines = 0;
+  panels.forEach(function (panel) {
+    var d = function (k) { return parseFloat(panel.getAttribute('data-' + k)); };
+    var left = d('left'), right = d('right'), top = d('top'), bottom = d('bottom');
+    var xMax = d('x-max'), yMax = d('y-max');
+    var series = Array.prototype.map.call(panel.querySelectorAll('polyline'), function (pl) {
+      lines++;
+      var pts = pl.getAttribute('points').trim().split(/\s+/).map(function (p) {
+        var xy = p.split(','); return [parseFloat(xy[0]), parseFloat(xy[1])];
+      });
+      return { run: pl.getAttribute('data-run'), points: pts };
+    });
+    var cursor = document.createElementNS(svg.namespaceURI, 'line');
+    cursor.setAttribute('y1', top); cursor.setAttribute('y2', bottom);
+    cursor.setAttribute('stroke', '#888'); cursor.setAttribute('stroke-dasharray', '3 3');
+    cursor.style.display = 'none';
+    panel.appendChild(cursor);
+    var frame = panel.querySelector('rect.frame');
+    frame.addEventListener('mousemove', function (ev) {
+      var p = svg.createSVGPoint(); p.x = ev.clientX; p.y = ev.clientY;
+      var q = p.matrixTransform(panel.getScreenCTM().inverse());
+      var best = {};
+      series.forEach(function (s) {
+        if (hidden[s.run]) return;
+        s.points.forEach(function (pt) {
+          var dist = Math.abs(pt[0] - q.x);
+          if (!best[s.run] || dist < best[s.run].dist) best[s.run] = { dist: dist, pt: pt };
+        });
+      });
+      var x = (q.x - left) / (right - left) * xMax;
+      var text = panel.getAttribute('data-title') + '<br>at ' + short(x) + ' ' +
+          panel.getAttribute('data-x-unit');
+      Object.keys(best).forEach(function (run) {
+        var pt = best[run].pt;
+        var xv = (pt[0] - left) / (right - left) * xMax;
+        var yv = (bottom - pt[1]) / (bottom - top) * yMax;
+        text += '<br>' + runName(run).replace(/</g, '&lt;') + ': ' + short(yv) + ' (at ' + short(xv) + ')';
+      });
+      readout.innerHTML = text;
+      readout.style.display = 'block';
+      readout.style.left = (ev.clientX + 14) + 'px';
+      readout.style.top = (ev.clientY + 14) + 'px';
+      cursor.setAttribute('x1', q.x); cursor.setAttribute('x2', q.x);
+      cursor.style.display = '';
+    });
+    frame.addEventListener('mouseleave', function () {
+      readout.style.display = 'none';
+      cursor.style.display = 'none';
+    });
+  });
+  console.log('ragdoll report: ' + panels.length + ' plots, ' + lines + ' lines');
+})();
+)";
+
+}  // namespace
+
+const std::vector<double>* MetricsTable::Column(const std::string& name) const {
+  auto it = std::find(columns.begin(), columns.end(), name);
+  return it == columns.end() ? nullptr : &values[it - columns.begin()];
+}
+
+MetricsTable ParseMetricsCsv(const std::string& text, const std::string& origin) {
+  auto fail = [&](size_t line, const std::string& message) {
+    throw ConfigError(origin + ":" + std::to_string(line) + ": " + message);
+  };
+  std::vector<std::string> lines;
+  bool last_terminated = true;
+  for (size_t start = 0; start < text.size();) {
+    size_t newline = text.find('\n', start);
+    if (newline == std::string::npos) {
+      lines.push_back(text.substr(start));
+      last_terminated = false;
+      break;
+    }
+    lines.push_back(text.substr(start, newline - start));
+    start = newline + 1;
+  }
+  if (lines.empty() || Trim(lines[0]).empty()) {
+    fail(1, "no header: the first line must name the columns (iteration,version,samples,...)");
+  }
+
+  MetricsTable m;
+  m.columns = SplitCells(lines[0]);
+  for (size_t c = 0; c < m.columns.size(); ++c) {
+    double number;
+    if (m.columns[c].empty() || ParseNumber(m.columns[c], &number)) {
+      fail(1,
+           "no header: the first line must name the columns (iteration,version,samples,...), "
+           "found '" +
+               m.columns[c] + "' in column " + std::to_string(c + 1));
+    }
+    if (std::find(m.columns.begin(), m.columns.begin() + c, m.columns[c]) !=
+        m.columns.begin() + c) {
+      fail(1, "column '" + m.columns[c] + "' appears twice in the header");
+    }
+  }
+  m.values.resize(m.columns.size());
+
+  for (size_t i = 1; i < lines.size(); ++i) {
+    const size_t line = i + 1;
+    if (Trim(lines[i]).empty()) continue;
+    // The learner appends a row at a time; a reader can catch the last one half written.
+    const bool partial_allowed = i + 1 == lines.size() && !last_terminated;
+    std::vector<std::string> cells = SplitCells(lines[i]);
+    std::vector<double> row(cells.size());
+    std::string problem;
+    if (cells.size() != m.columns.size()) {
+      problem = std::to_string(cells.size()) + " cells, but the header names " +
+                std::to_string(m.columns.size()) + " columns";
+    } else {
+      for (size_t c = 0; c < cells.size() && problem.empty(); ++c) {
+        if (!ParseNumber(cells[c], &row[c])) {
+          problem = "column " + std::to_string(c + 1) + " (" + m.columns[c] + "): '" + cells[c] +
+                    "' is not a number";
+        }
+      }
+    }
+    if (!problem.empty()) {
+      if (partial_allowed && cells.size() <= m.columns.size()) {
+        m.note = origin + ":" + std::to_string(line) +
+                 ": last line incomplete (being written?), left out";
+        break;
+      }
+      fail(line, problem);
+    }
+    for (size_t c = 0; c < cells.size(); ++c) m.values[c].push_back(row[c]);
+    ++m.rows;
+  }
+
+  for (const char* required : {"samples", "elapsed_s"}) {
+    if (!m.Column(required)) {
+      throw ConfigError(origin + ": no '" + required +
+                        "' column (the curves are drawn against samples and elapsed_s)");
+    }
+  }
+  return m;
+}
+
+EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string& origin) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw ConfigError(origin + ": not JSON (" + e.what() + ")");
+  }
+  EvaluationSummary s;
+  try {
+    s.episodes = j.at("episodes").get<int>();
+    s.mean_return = j.at("mean_return").get<double>();
+    s.normalized_return = j.at("normalized_return").get<double>();
+    s.episode_length = j.at("episode_length").get<double>();
+    s.fall_rate = j.at("fall_rate").get<double>();
+    const auto& terms = j.at("reward_terms");
+    s.rotation = terms.at("rotation").get<double>();
+    s.velocity = terms.at("velocity").get<double>();
+    s.end_effector = terms.at("end_effector").get<double>();
+    s.com = terms.at("com").get<double>();
+    s.root = terms.at("root").get<double>();
+    s.policy_version = j.value("policy_version", int64_t{-1});
+    s.samples = j.value("samples", int64_t{-1});
+    s.checkpoint = j.value("checkpoint", std::string());
+    if (j.contains("perturbation")) {
+      s.pushes = true;
+      s.survived_90 = j.at("perturbation").value("survived_90", -1.0);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw ConfigError(origin + ": not an evaluation written by `ragdoll eval` (" + e.what() + ")");
+  }
+  return s;
+}
+
+std::string ClipOfConfig(const std::string& config_yaml) {
+  try {
+    YAML::Node root = YAML::Load(config_yaml);
+    YAML::Node motion = root["environment"]["motion"];
+    if (motion && motion.IsScalar()) {
+      return std::filesystem::path(motion.as<std::string>()).stem().string();
+    }
+  } catch (const YAML::Exception&) {
+  }
+  return "";
+}
+
+std::vector<ConfigDifference> CompareConfigs(const std::vector<std::string>& config_yamls) {
+  std::vector<std::map<std::string, std::string>> flat(config_yamls.size());
+  std::set<std::string> keys;
+  for (size_t r = 0; r < config_yamls.size(); ++r) {
+    try {
+      Flatten(YAML::Load(config_yamls[r]), "", &flat[r]);
+    } catch (const YAML::Exception&) {
+    }
+    for (const auto& kv : flat[r]) keys.insert(kv.first);
+  }
+  std::vector<ConfigDifference> out;
+  if (config_yamls.size() < 2) return out;
+  for (const auto& key : keys) {
+    ConfigDifference d{key, {}};
+    for (const auto& f : flat) {
+      auto it = f.find(key);
+      d.values.push_back(it == f.end() ? "" : it->second);
+    }
+    if (std::adjacent_find(d.values.begin(), d.values.end(), std::not_equal_to<>()) !=
+        d.values.end()) {
+      out.push_back(d);
+    }
+  }
+  return out;
+}
+
+std::vector<double> CumulativeWallTime(const std::vector<double>& elapsed_s) {
+  std::vector<double> out;
+  out.reserve(elapsed_s.size());
+  double offset = 0, previous = kNaN;
+  for (double e : elapsed_s) {
+    if (!std::isfinite(e)) {
+      out.push_back(kNaN);
+      continue;
+    }
+    if (std::isfinite(previous) && e < previous) offset += previous;
+    out.push_back(e + offset);
+    previous = e;
+  }
+  return out;
+}
+
+const std::string& RunColour(size_t run) {
+  // Tableau 10, with red second: the usual A/B pair reads as blue against red.
+  static const std::vector<std::string> palette = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
+                                                   "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+                                                   "#bcbd22", "#17becf"};
+  return palette[run % palette.size()];
+}
+
+std::string CurvesSvg(const std::vector<RunReport>& runs) {
+  std::vector<RunCurves> curves;
+  double max_samples = 0, max_seconds = 0;
+  for (const auto& run : runs) {
+    curves.push_back(CurvesOf(run));
+    max_samples = std::max(max_samples, MaxFinite(curves.back().samples));
+    max_seconds = std::max(max_seconds, MaxFinite(curves.back().wall_time));
+  }
+  const XAxisUnit samples_unit = SamplesUnit(max_samples);
+  const XAxisUnit time_unit = WallTimeUnit(max_seconds);
+  const Axis samples_axis = RoundAxis(max_samples / samples_unit.scale);
+  const Axis time_axis = RoundAxis(max_seconds / time_unit.scale);
+
+  // The legend: runs left to right, wrapping; its height moves the plots down.
+  std::string legend;
+  double lx = 70, ly = kLegendTop + 14;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const double width = 46 + 7.2 * static_cast<double>(runs[r].id.size());
+    if (lx + width > kSvgWidth - 20 && r > 0) {
+      lx = 70;
+      ly += kLegendRow;
+    }
+    legend += "<g class=\"legend-item\" data-run=\"" + std::to_string(r) +
+              "\" transform=\"translate(" + Format("%g", lx) + "," + Format("%g", ly) +
+              ")\"><line x1=\"0\" x2=\"26\" y1=\"-4\" y2=\"-4\" stroke=\"" + RunColour(r) +
+              "\" stroke-width=\"4\"/><text x=\"32\" y=\"0\" font-size=\"13\" fill=\"#222\">" +
+              Escape(runs[r].id) + "</text></g>\n";
+    lx += width;
+  }
+  const double headings_top = ly + 14;
+  const double plots_top = headings_top + kHeadingRow;
+  const double height = plots_top + kCellHeight * std::size(kCurves);
+
+  std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + Format("%g", kSvgWidth) +
+                    "\" height=\"" + Format("%g", height) + "\" viewBox=\"0 0 " +
+                    Format("%g", kSvgWidth) + " " + Format("%g", height) +
+                    "\" font-family=\"DejaVu Sans, sans-serif\">\n";
+  svg += "<rect width=\"100%\" height=\"100%\" fill=\"#ffffff\"/>\n";
+  svg += legend;
+  svg += "<text x=\"" + Format("%g", kPlotLeft) + "\" y=\"" + Format("%g", headings_top + 18) +
+         "\" font-size=\"15\" font-weight=\"bold\" fill=\"#222\">against samples</text>\n";
+  svg += "<text x=\"" + Format("%g", kCellWidth + kPlotLeft) + "\" y=\"" +
+         Format("%g", headings_top + 18) +
+         "\" font-size=\"15\" font-weight=\"bold\" fill=\"#222\">against wall time "
+         "(learner sessions added up)</text>\n";
+  for (size_t i = 0; i < std::size(kCurves); ++i) {
+    const double oy = plots_top + kCellHeight * static_cast<double>(i);
+    Plot(svg, 0, oy, kCurves[i], samples_unit, samples_axis, runs, curves);
+    Plot(svg, kCellWidth, oy, kCurves[i], time_unit, time_axis, runs, curves);
+  }
+  svg += "</svg>\n";
+  return svg;
+}
+
+std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& curves_svg,
+                       const std::string& generated) {
+  std::string ids;
+  for (const auto& run : runs) ids += (ids.empty() ? "" : ", ") + run.id;
+  std::string h = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  h += "<title>ragdoll report: " + Escape(ids) + "</title>\n<style>" + kStyle + "</style>\n";
+  h += "</head>\n<body>\n<h1>ragdoll report</h1>\n<p class=\"sub\">" + std::to_string(runs.size()) +
+       (runs.size() == 1 ? " run" : " runs") + ": " + Escape(ids) + "</p>\n";
+
+  // Header: one row per run.
+  h += "<table class=\"runs\">\n<tr><th></th><th>run</th><th>clip</th><th>samples</th>"
+       "<th>wall time</th><th>PPO updates</th><th>latest normalised return</th>"
+       "<th>evaluated normalised return</th></tr>\n";
+  std::vector<std::string> notes;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const RunReport& run = runs[r];
+    const MetricsTable& m = run.metrics;
+    const std::string clip = ClipOfConfig(run.config_text);
+    const double samples = LastValue(m, "samples");
+    std::vector<double> wall;
+    if (const auto* e = m.Column("elapsed_s")) wall = CumulativeWallTime(*e);
+    const long last = LastEpisodeRow(m);
+    h += "<tr><td><span class=\"swatch\" style=\"background:" + RunColour(r) + "\"></span></td>";
+    h += "<td>" + Escape(run.id) + "</td>";
+    h += "<td>" + (clip.empty() ? std::string("— (no config.yaml)") : Escape(clip)) + "</td>";
+    h += "<td class=\"num\">" +
+         (std::isfinite(samples) ? Count(static_cast<int64_t>(samples)) : "—") + "</td>";
+    h += "<td class=\"num\">" + Clock(wall.empty() ? kNaN : wall.back()) + "</td>";
+    h += "<td class=\"num\">" + std::to_string(m.rows) + "</td>";
+    h += "<td class=\"num\">" +
+         (last >= 0 ? Format("%.3f", (*m.Column("normalized_return"))[last]) : "—") + "</td>";
+    h += "<td class=\"num\">" +
+         (run.evaluation ? Format("%.3f", run.evaluation->normalized_return) : "—") +
+         "</td></tr>\n";
+    if (!m.note.empty()) notes.push_back(m.note);
+    if (m.rows == 0) notes.push_back(run.id + ": metrics.csv has no rows yet");
+  }
+  h += "</table>\n";
+  for (const auto& n : notes) h += "<p class=\"note\">" + Escape(n) + "</p>\n";
+
+  h += "<h2>Training curves</h2>\n<p class=\"hint\">One point per PPO update: the mean over the "
+       "episodes that finished since the previous update. Click a run in the legend to hide or "
+       "show it; hover a plot to read its values.</p>\n";
+  h += "<div id=\"curves\">\n" + curves_svg + "</div>\n";
+
+  // Evaluation: quantities as rows, runs with an eval.json as columns.
+  h += "<h2>Latest evaluation</h2>\n";
+  std::vector<size_t> evaluated;
+  for (size_t r = 0; r < runs.size(); ++r) {
+    if (runs[r].evaluation) evaluated.push_back(r);
+  }
+  if (!evaluated.empty()) {
+    h += "<p class=\"hint\">Deterministic policy (mean action), episodes from random phases "
+         "(<code>ragdoll eval</code>).</p>\n<table class=\"evaluation\">\n<tr><th></th>";
+    for (size_t r : evaluated) {
+      h += "<th><span class=\"swatch\" style=\"background:" + RunColour(r) + "\"></span> " +
+           Escape(runs[r].id) + "</th>";
+    }
+    h += "</tr>\n";
+    auto row = [&](const std::string& name, auto value) {
+      h += "<tr><td>" + name + "</td>";
+      for (size_t r : evaluated) h += "<td class=\"num\">" + value(*runs[r].evaluation) + "</td>";
+      h += "</tr>\n";
+    };
+    using E = const EvaluationSummary&;
+    row("normalised return", [](E e) { return Format("%.3f", e.normalized_return); });
+    row("fall rate", [](E e) { return Format("%.2f", e.fall_rate); });
+    row("episode length (steps)", [](E e) { return Format("%.1f", e.episode_length); });
+    row("episodes", [](E e) { return std::to_string(e.episodes); });
+    row("mean return", [](E e) { return Format("%.2f", e.mean_return); });
+    row("rotation term", [](E e) { return Format("%.3f", e.rotation); });
+    row("velocity term", [](E e) { return Format("%.3f", e.velocity); });
+    row("end_effector term", [](E e) { return Format("%.3f", e.end_effector); });
+    row("com term", [](E e) { return Format("%.3f", e.com); });
+    row("root term", [](E e) { return Format("%.3f", e.root); });
+    if (std::any_of(evaluated.begin(), evaluated.end(),
+                    [&](size_t r) { return runs[r].evaluation->pushes; })) {
+      row("largest push survived in 90 % (N s)", [](E e) {
+        return !e.pushes           ? std::string("—")
+               : e.survived_90 < 0 ? std::string("none")
+                                   : Format("%g", e.survived_90);
+      });
+    }
+    row("policy version", [](E e) {
+      return e.policy_version < 0 ? std::string("—") : "v" + std::to_string(e.policy_version);
+    });
+    row("samples of the checkpoint",
+        [](E e) { return e.samples < 0 ? std::string("—") : Count(e.samples); });
+    row("checkpoint", [](E e) {
+      return e.checkpoint.empty() ? std::string("—")
+                                  : Escape(std::filesystem::path(e.checkpoint).filename().string());
+    });
+    h += "</table>\n";
+    for (size_t r : evaluated) {
+      const double now = LastValue(runs[r].metrics, "samples");
+      const int64_t at = runs[r].evaluation->samples;
+      if (at >= 0 && std::isfinite(now) && now > static_cast<double>(at)) {
+        h += "<p class=\"note\">" + Escape(runs[r].id) + ": evaluated at " + Count(at) +
+             " samples; training has reached " + Count(static_cast<int64_t>(now)) +
+             " since (run <code>ragdoll eval " + Escape(runs[r].path) + "</code> again).</p>\n";
+      }
+    }
+  }
+  for (const auto& run : runs) {
+    if (run.evaluation) continue;
+    h += "<p class=\"note\">" + Escape(run.id) +
+         ": no eval.json. Make one with <code>ragdoll eval " + Escape(run.path) +
+         "</code> (it evaluates the newest checkpoint and writes " + Escape(run.path) +
+         "/eval.json).</p>\n";
+  }
+
+  h += "<h2>Newest policy beside its reference</h2>\n<div class=\"gifs\">\n";
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const RunReport& run = runs[r];
+    h += "<figure>";
+    if (!run.gif.empty()) {
+      h += "<img alt=\"" + Escape(run.id) +
+           ": the newest policy beside the reference ghost\" "
+           "src=\"data:image/gif;base64," +
+           Base64(run.gif) + "\">";
+    }
+    h += "<figcaption><span class=\"swatch\" style=\"background:" + RunColour(r) +
+         "\"></span> <b>" + Escape(run.id) + "</b>: " + Escape(run.gif_caption) +
+         "</figcaption></figure>\n";
+  }
+  h += "</div>\n";
+
+  h += "<h2>Configuration</h2>\n";
+  if (runs.size() > 1) {
+    std::vector<std::string> texts;
+    for (const auto& run : runs) texts.push_back(run.config_text);
+    const auto differences = CompareConfigs(texts);
+    if (differences.empty()) {
+      h += "<p>The runs' config.yaml hold the same settings.</p>\n";
+    } else {
+      h += "<p>Settings that differ between the runs' config.yaml (—: not in that file, so the "
+           "default applies):</p>\n<table>\n<tr><th>key</th>";
+      for (size_t r = 0; r < runs.size(); ++r) h += "<th>" + Escape(runs[r].id) + "</th>";
+      h += "</tr>\n";
+      for (const auto& d : differences) {
+        h += "<tr><td><code>" + Escape(d.key) + "</code></td>";
+        for (const auto& v : d.values) {
+          h += "<td class=\"wrap\">" + (v.empty() ? std::string("—") : Escape(v)) + "</td>";
+        }
+        h += "</tr>\n";
+      }
+      h += "</table>\n";
+    }
+  }
+  for (const auto& run : runs) {
+    h += "<details><summary>" + Escape(run.id) + "/config.yaml</summary><pre>" +
+         (run.config_text.empty() ? std::string("(none)") : Escape(run.config_text)) +
+         "</pre></details>\n";
+  }
+
+  h += "<footer><p>" + Escape(generated) + "</p></footer>\n<div id=\"readout\"></div>\n";
+  h += std::string("<script>") + kScript + "</script>\n</body>\n</html>\n";
+  return h;
+}
+
+std::string Base64(const std::string& bytes) {
+  static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t n = static_cast<uint8_t>(bytes[i]) << 16 |
+                       static_cast<uint8_t>(bytes[i + 1]) << 8 | static_cast<uint8_t>(bytes[i + 2]);
+    out += alphabet[n >> 18 & 63];
+    out += alphabet[n >> 12 & 63];
+    out += alphabet[n >> 6 & 63];
+    out += alphabet[n & 63];
+  }
+  if (i < bytes.size()) {
+    uint32_t n = static_cast<uint8_t>(bytes[i]) << 16;
+    if (i + 1 < bytes.size()) n |= static_cast<uint8_t>(bytes[i + 1]) << 8;
+    out += alphabet[n >> 18 & 63];
+    out += alphabet[n >> 12 & 63];
+    out += i + 1 < bytes.size() ? alphabet[n >> 6 & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+}  // namespace ragdoll::cli

@@ -1,0 +1,93 @@
+// The pure part of `ragdoll report`: a run's files, given as text, read into structs, and the
+// page built from them as strings (SVG curves, self-contained HTML). No file, process or clock
+// access here; cli/report_command.cc does that, so the tests call these functions directly.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace ragdoll::cli {
+
+// A run's metrics.csv (written by the learner, one row per PPO update), columns by header name
+// so that columns added later, or missing optional ones, do not matter.
+struct MetricsTable {
+  std::vector<std::string> columns;         // the header, in file order
+  std::vector<std::vector<double>> values;  // values[column][row]
+  size_t rows = 0;
+  std::string note;  // what was tolerated (a last line cut short while the learner wrote it)
+
+  // The column called `name`, or nullptr when the file does not have one.
+  const std::vector<double>* Column(const std::string& name) const;
+};
+
+// Parses metrics.csv; `origin` names the file in messages. Throws ConfigError
+// "origin:LINE: ..." for a missing header, a row whose number of cells differs from the header's,
+// or a cell that is not a number (naming its column), and "origin: ..." when the columns the
+// curves are drawn against (samples, elapsed_s) are absent. A last line without its newline and
+// with too few cells is the learner caught mid-write: it is dropped and noted, not an error.
+MetricsTable ParseMetricsCsv(const std::string& text, const std::string& origin);
+
+// `ragdoll eval RUN` as written to <run>/eval.json. The checkpoint fields are -1 / empty when the
+// file predates them.
+struct EvaluationSummary {
+  int episodes = 0;
+  double mean_return = 0, normalized_return = 0, episode_length = 0, fall_rate = 0;
+  double rotation = 0, velocity = 0, end_effector = 0, com = 0, root = 0;
+  int64_t policy_version = -1, samples = -1;
+  std::string checkpoint;
+  double survived_90 = -1;  // with push trials: largest impulse survived in 90 %, N s
+  bool pushes = false;
+};
+
+// Throws ConfigError naming `origin` for text that is not JSON or lacks the evaluation's fields.
+EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string& origin);
+
+// What the page shows of one run.
+struct RunReport {
+  std::string id;           // the folder's name (its path when two runs share a name)
+  std::string path;         // as given on the command line, for the commands the page suggests
+  std::string config_text;  // config.yaml ("" when the folder has none)
+  MetricsTable metrics;
+  std::optional<EvaluationSummary> evaluation;
+  std::string gif;          // an animated GIF's bytes; empty when there is none
+  std::string gif_caption;  // under the GIF, or why there is none
+};
+
+// The clip a run follows: the file stem of environment.motion in config.yaml ("" if absent).
+std::string ClipOfConfig(const std::string& config_yaml);
+
+// Keys (dotted paths) whose values differ between the runs' config.yaml, with each run's value
+// ("" where a run lacks the key). Paths of clip files compare by value, so the same clip under
+// two checkouts counts as different; lists compare as their flow-style text.
+struct ConfigDifference {
+  std::string key;
+  std::vector<std::string> values;  // one per run
+};
+std::vector<ConfigDifference> CompareConfigs(const std::vector<std::string>& config_yamls);
+
+// Wall time of each row, seconds: elapsed_s made cumulative across learner sessions (a resumed
+// run starts its clock at zero again; its rows continue from the previous session's last time).
+std::vector<double> CumulativeWallTime(const std::vector<double>& elapsed_s);
+
+// The run colours, in order; runs beyond the palette reuse it.
+const std::string& RunColour(size_t run);
+
+// All curves in one SVG: normalised return, fall rate, episode length and each reward term
+// (rows) against samples and against wall time (columns), every run overlaid in its colour,
+// with a legend. Episode curves skip rows without finished episodes (episodes == 0) and
+// non-finite cells; a run whose samples go back (a restart from an older checkpoint) starts a
+// new line there. Polylines carry data-run, data-metric and data-axis attributes.
+std::string CurvesSvg(const std::vector<RunReport>& runs);
+
+// The whole page: a header per run, the curves, the evaluation table (or how to make one), the
+// GIFs as data URIs, and a small script (legend toggles, hover readout). Loads nothing from
+// the network. `generated` is a line for the footer (e.g. the time and the command).
+std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& curves_svg,
+                       const std::string& generated);
+
+// Base64 (RFC 4648, with padding), for data URIs.
+std::string Base64(const std::string& bytes);
+
+}  // namespace ragdoll::cli
