@@ -30,7 +30,8 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
       action_size_(action_size),
       policy_(observation_size, action_size, config.network),
       critic_(observation_size, config.network),
-      stats_(observation_size) {
+      stats_(observation_size),
+      adaptive_learning_rate_(config.learning_rate) {
   std::vector<torch::Tensor> params = policy_->parameters();
   for (const auto& p : critic_->parameters()) params.push_back(p);
   optimizer_ = std::make_unique<torch::optim::Adam>(
@@ -123,12 +124,24 @@ UpdateStats Learner::Update() {
   torch::Tensor b_values = values.reshape({B});
 
   UpdateStats stats;
-  stats.learning_rate = config_.linear_schedule
-                            ? LinearSchedule(config_.learning_rate, samples_, config_.max_steps)
-                            : config_.learning_rate;
-  for (auto& group : optimizer_->param_groups()) {
-    static_cast<torch::optim::AdamOptions&>(group.options()).lr(stats.learning_rate);
+  using Schedule = TrainerConfig::Schedule;
+  auto set_learning_rate = [this](double lr) {
+    for (auto& group : optimizer_->param_groups()) {
+      static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
+    }
+  };
+  switch (config_.schedule) {
+    case Schedule::kLinear:
+      stats.learning_rate = LinearSchedule(config_.learning_rate, samples_, config_.max_steps);
+      break;
+    case Schedule::kConstant:
+      stats.learning_rate = config_.learning_rate;
+      break;
+    case Schedule::kAdaptive:
+      stats.learning_rate = adaptive_learning_rate_;
+      break;
   }
+  set_learning_rate(stats.learning_rate);
   PpoLossConfig loss_config;
   loss_config.clip_coef = config_.epsilon;
   loss_config.clip_vloss = config_.clip_value_loss;
@@ -158,6 +171,12 @@ UpdateStats Learner::Update() {
         continue;
       }
       optimizer_->step();
+      if (config_.schedule == Schedule::kAdaptive) {
+        adaptive_learning_rate_ =
+            AdaptiveLearningRate(adaptive_learning_rate_, loss.approx_kl, config_.target_kl);
+        set_learning_rate(adaptive_learning_rate_);
+        stats.learning_rate = adaptive_learning_rate_;
+      }
       stats.policy_loss += loss.pg_loss;
       stats.value_loss += loss.v_loss;
       stats.entropy += loss.entropy;
@@ -223,6 +242,7 @@ void Learner::Save(const std::string& path, const std::string& config_text) {
   archive.write("sizes",
                 torch::tensor({int64_t{observation_size_}, int64_t{action_size_}}, torch::kInt64));
   archive.write("config", c10::IValue(config_text));
+  archive.write("adaptive_learning_rate", torch::tensor(adaptive_learning_rate_, torch::kFloat64));
   std::string tmp = path + ".tmp";
   archive.save_to(tmp);
   std::filesystem::rename(tmp, path);
@@ -257,6 +277,11 @@ std::string Learner::Load(const std::string& path) {
     samples_ = counters[1].item<int64_t>();
     iterations_ = counters[2].item<int64_t>();
     stale_dropped_ = counters[3].item<int64_t>();
+    // Absent from checkpoints written before the adaptive schedule: start it afresh.
+    torch::Tensor adaptive;
+    if (archive.try_read("adaptive_learning_rate", adaptive)) {
+      adaptive_learning_rate_ = adaptive.item<double>();
+    }
     c10::IValue config;
     archive.read("config", config);
     return config.toStringRef();

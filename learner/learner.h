@@ -86,6 +86,8 @@ class Learner {
   int64_t samples_ = 0;
   int64_t iterations_ = 0;
   int64_t stale_dropped_ = 0;
+  // The adaptive schedule's current rate (saved with checkpoints, so --resume continues it).
+  double adaptive_learning_rate_;
   EpisodeStatsSum episodes_;
 };
 

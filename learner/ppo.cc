@@ -1,6 +1,7 @@
 #include "learner/ppo.h"
 
 #include <algorithm>
+#include <cmath>
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
@@ -107,6 +108,14 @@ double ExplainedVariance(const torch::Tensor& values, const torch::Tensor& retur
   // any average of it finite, and says the critic explains nothing.
   if (var_y == 0.0) return 0.0;
   return 1.0 - (y - y_pred).var(/*unbiased=*/false).item<double>() / var_y;
+}
+
+double AdaptiveLearningRate(double learning_rate, double approx_kl, double target_kl) {
+  constexpr double kFactor = 1.5, kMin = 1e-6, kMax = 1e-2;
+  if (!std::isfinite(approx_kl)) return std::max(kMin, learning_rate / kFactor);
+  if (approx_kl > 2 * target_kl) learning_rate /= kFactor;
+  if (approx_kl < 0.5 * target_kl) learning_rate *= kFactor;
+  return std::clamp(learning_rate, kMin, kMax);
 }
 
 double LinearSchedule(double initial, int64_t samples, int64_t max_steps) {

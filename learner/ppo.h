@@ -64,4 +64,12 @@ double ExplainedVariance(const torch::Tensor& values, const torch::Tensor& retur
 // Linear decay to zero at max_steps (ML-Agents' "linear" schedule).
 double LinearSchedule(double initial, int64_t samples, int64_t max_steps);
 
+// The "adaptive" schedule (rl_games, as used for DeepMimic-style imitation in Isaac Gym): after
+// a minibatch whose approximate KL from the behaviour policy exceeded twice `target_kl`, the
+// rate falls by 1.5x; below half of it, it rises by 1.5x; always within [1e-6, 1e-2]. Adam's step
+// does not shrink with the action noise, so a fixed rate that suits a wide policy moves a narrow
+// one many standard deviations per update; tying the rate to the KL keeps each update a
+// trust-region step whatever the noise.
+double AdaptiveLearningRate(double learning_rate, double approx_kl, double target_kl);
+
 }  // namespace ragdoll::learner

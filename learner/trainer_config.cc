@@ -40,10 +40,17 @@ TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
   }
   c.learning_rate = PositiveNumber(h, "learning_rate", c.learning_rate);
   std::string schedule = h.Get<std::string>("learning_rate_schedule", "linear");
-  if (schedule != "linear" && schedule != "constant") {
-    h.Fail("learning_rate_schedule", "expected 'linear' or 'constant', got '" + schedule + "'");
+  if (schedule == "linear") {
+    c.schedule = TrainerConfig::Schedule::kLinear;
+  } else if (schedule == "constant") {
+    c.schedule = TrainerConfig::Schedule::kConstant;
+  } else if (schedule == "adaptive") {
+    c.schedule = TrainerConfig::Schedule::kAdaptive;
+  } else {
+    h.Fail("learning_rate_schedule",
+           "expected 'linear', 'constant' or 'adaptive', got '" + schedule + "'");
   }
-  c.linear_schedule = schedule == "linear";
+  c.target_kl = PositiveNumber(h, "target_kl", c.target_kl);
   c.beta = h.Get<double>("beta", c.beta);
   if (!(c.beta >= 0)) h.Fail("beta", "must be zero or more");
   c.epsilon = PositiveNumber(h, "epsilon", c.epsilon);

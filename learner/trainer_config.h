@@ -19,14 +19,16 @@ struct TrainerConfig {
   // hyperparameters
   int64_t batch_size = 1000;    // samples per minibatch (gradient step)
   int64_t buffer_size = 20000;  // samples per PPO update
-  double learning_rate = 3e-4;
-  bool linear_schedule = true;  // learning_rate_schedule: linear | constant
-  double beta = 5e-4;           // entropy bonus
-  double epsilon = 0.2;         // surrogate clip range (also the value clip range)
-  double lambd = 0.95;          // GAE lambda
-  int num_epoch = 2;            // passes over each buffer
-  double max_grad_norm = 0.5;   // global gradient-norm clip
-  double value_coef = 0.5;      // weight of the value loss
+  double learning_rate = 3e-4;  // the initial rate
+  enum class Schedule { kLinear, kConstant, kAdaptive };
+  Schedule schedule = Schedule::kLinear;  // learning_rate_schedule: linear | constant | adaptive
+  double target_kl = 0.01;                // adaptive: the KL per minibatch it steers towards
+  double beta = 5e-4;                     // entropy bonus
+  double epsilon = 0.2;                   // surrogate clip range (also the value clip range)
+  double lambd = 0.95;                    // GAE lambda
+  int num_epoch = 2;                      // passes over each buffer
+  double max_grad_norm = 0.5;             // global gradient-norm clip
+  double value_coef = 0.5;                // weight of the value loss
   bool clip_value_loss = true;
   // network_settings
   bool normalize = true;  // observation normalisation

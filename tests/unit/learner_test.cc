@@ -1,12 +1,15 @@
 #include "learner/learner.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
 
 #include "common/config_section.h"
+#include "learner/trainer_config.h"
 
 namespace ragdoll::learner {
 namespace {
@@ -148,6 +151,33 @@ TEST_F(LearnerTest, CheckpointRestoresTrainingStateExactly) {
   EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
 }
 
+// The adaptive schedule moves the rate every minibatch and a checkpoint carries it: a resumed
+// run continues with the same rate and takes the same steps.
+TEST_F(LearnerTest, AdaptiveScheduleMovesTheRateAndResumesIt) {
+  TrainerConfig config = SmallConfig();
+  config.schedule = TrainerConfig::Schedule::kAdaptive;
+  config.target_kl = 1e-9;  // any KL is too large: the rate falls 1.5x per minibatch
+  torch::manual_seed(1);
+  Learner original(config, kObs, kAct);
+  Fill(original, 1);
+  UpdateStats first = original.Update();
+  // 2 epochs x (32 samples / batch 16) = 4 minibatches.
+  EXPECT_NEAR(first.learning_rate, 3e-4 / std::pow(1.5, 4), 1e-15);
+  const std::string path = (dir_ / "adaptive.pt").string();
+  original.Save(path, "");
+  Learner restored(config, kObs, kAct);
+  restored.Load(path);
+  Fill(original, 2);
+  Fill(restored, 2);
+  torch::manual_seed(7);
+  UpdateStats a = original.Update();
+  torch::manual_seed(7);
+  UpdateStats b = restored.Update();
+  EXPECT_NEAR(a.learning_rate, 3e-4 / std::pow(1.5, 8), 1e-15);
+  EXPECT_EQ(a.learning_rate, b.learning_rate);
+  EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
+}
+
 TEST_F(LearnerTest, BadCheckpointsAreRejectedNamingTheFile) {
   Learner learner(SmallConfig(), kObs, kAct);
   const std::string garbage = (dir_ / "garbage.pt").string();
@@ -191,6 +221,26 @@ TEST_F(LearnerTest, SnapshotCarriesPolicyAndStatistics) {
   RunningStats stats = StatsFromSnapshot(s);
   for (int i = 0; i < kObs; ++i) {
     EXPECT_NEAR(stats.mean()[i], learner.stats().mean()[i], 1e-6);
+  }
+}
+
+TEST(TrainerConfig, ReadsTheLearningRateSchedule) {
+  auto read = [](const std::string& yaml) {
+    return ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml"));
+  };
+  EXPECT_EQ(read("{}").schedule, TrainerConfig::Schedule::kLinear);
+  TrainerConfig c = read("hyperparameters: {learning_rate_schedule: adaptive, target_kl: 0.02}");
+  EXPECT_EQ(c.schedule, TrainerConfig::Schedule::kAdaptive);
+  EXPECT_EQ(c.target_kl, 0.02);
+  EXPECT_EQ(read("hyperparameters: {learning_rate_schedule: constant}").schedule,
+            TrainerConfig::Schedule::kConstant);
+  try {
+    read("hyperparameters:\n  learning_rate_schedule: kl\n");
+    ADD_FAILURE() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(),
+                ::testing::HasSubstr("t.yaml:2: hyperparameters.learning_rate_schedule: expected "
+                                     "'linear', 'constant' or 'adaptive', got 'kl'"));
   }
 }
 

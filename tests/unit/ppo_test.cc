@@ -352,5 +352,17 @@ TEST(PpoSchedule, LinearDecayToZeroAtMaxSteps) {
   EXPECT_THROW(LinearSchedule(3e-4, 10, 0), std::invalid_argument);
 }
 
+TEST(PpoSchedule, AdaptiveFollowsTheKlWithinBounds) {
+  // target 0.01: above 0.02 the rate falls by 1.5, below 0.005 it rises by 1.5, else stays.
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, 0.021, 0.01), 2e-4);
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, 0.004, 0.01), 4.5e-4);
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, 0.01, 0.01), 3e-4);
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, 0.02, 0.01), 3e-4);   // the bounds themselves
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, 0.005, 0.01), 3e-4);  // keep the rate
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(1.2e-6, 1.0, 0.01), 1e-6);  // floor
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(8e-3, 0.0, 0.01), 1e-2);    // ceiling
+  EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, NAN, 0.01), 2e-4);    // a NaN KL never raises it
+}
+
 }  // namespace
 }  // namespace ragdoll::learner
