@@ -58,13 +58,13 @@ torch::Tensor GaussianPolicyImpl::forward(const torch::Tensor& observations) {
   return mean->forward(observations);
 }
 
-std::pair<torch::Tensor, torch::Tensor> GaussianPolicyImpl::LogProbAndEntropy(
-    const torch::Tensor& observations, const torch::Tensor& actions) {
+GaussianPolicyImpl::Evaluation GaussianPolicyImpl::Evaluate(const torch::Tensor& observations,
+                                                            const torch::Tensor& actions) {
   torch::Tensor mu = forward(observations);
   torch::Tensor z = (actions - mu) * torch::exp(-log_std);
   torch::Tensor log_prob = (-0.5 * z * z - log_std - kLogSqrt2Pi).sum(-1);
   torch::Tensor entropy = (0.5 + kLogSqrt2Pi + log_std).sum().expand({observations.size(0)});
-  return {log_prob, entropy};
+  return {mu, log_prob, entropy};
 }
 
 ValueNetworkImpl::ValueNetworkImpl(int observation_size, const NetworkConfig& config) {

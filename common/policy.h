@@ -29,9 +29,12 @@ class GaussianPolicyImpl : public torch::nn::Module {
   GaussianPolicyImpl(int observation_size, int action_size, const NetworkConfig& config);
   // Mean action for normalised observations [B, obs].
   torch::Tensor forward(const torch::Tensor& observations);
-  // Log-probability of `actions` [B, act] (summed over dimensions) and the entropy, both [B].
-  std::pair<torch::Tensor, torch::Tensor> LogProbAndEntropy(const torch::Tensor& observations,
-                                                            const torch::Tensor& actions);
+  // The mean action [B, act], the log-probability of `actions` [B, act] (summed over
+  // dimensions) and the entropy, both [B].
+  struct Evaluation {
+    torch::Tensor mean, log_prob, entropy;
+  };
+  Evaluation Evaluate(const torch::Tensor& observations, const torch::Tensor& actions);
 
   int observation_size() const { return observation_size_; }
   int action_size() const { return action_size_; }

@@ -148,6 +148,14 @@ UpdateStats Learner::Update() {
   loss_config.vf_coef = config_.value_coef;
   loss_config.ent_coef = config_.beta;
 
+  // The policy this update starts from, to measure how far each step has moved it.
+  torch::Tensor old_means, old_log_std;
+  {
+    torch::NoGradGuard no_grad;
+    old_means = policy_->forward(b_obs);
+    old_log_std = policy_->log_std.detach().clone();
+  }
+
   std::vector<torch::Tensor> params = optimizer_->param_groups()[0].params();
   int64_t minibatches = 0;
   const int64_t mb = std::min(config_.batch_size, B);
@@ -155,11 +163,12 @@ UpdateStats Learner::Update() {
     torch::Tensor order = torch::randperm(B, torch::kLong);
     for (int64_t start_index = 0; start_index + mb <= B; start_index += mb) {
       torch::Tensor idx = order.slice(0, start_index, start_index + mb);
-      auto [newlogprob, entropy] =
-          policy_->LogProbAndEntropy(b_obs.index_select(0, idx), b_actions.index_select(0, idx));
+      auto current = policy_->Evaluate(b_obs.index_select(0, idx), b_actions.index_select(0, idx));
+      const double update_kl =
+          GaussianKl(old_means.index_select(0, idx), old_log_std, current.mean, policy_->log_std);
       torch::Tensor newvalue = critic_->forward(b_obs.index_select(0, idx));
       PpoLoss loss =
-          ComputePpoLoss(loss_config, newlogprob, entropy, newvalue,
+          ComputePpoLoss(loss_config, current.log_prob, current.entropy, newvalue,
                          b_logprobs.index_select(0, idx), b_advantages.index_select(0, idx),
                          b_returns.index_select(0, idx), b_values.index_select(0, idx));
       optimizer_->zero_grad();
@@ -173,7 +182,7 @@ UpdateStats Learner::Update() {
       optimizer_->step();
       if (config_.schedule == Schedule::kAdaptive) {
         adaptive_learning_rate_ =
-            AdaptiveLearningRate(adaptive_learning_rate_, loss.approx_kl, config_.target_kl);
+            AdaptiveLearningRate(adaptive_learning_rate_, update_kl, config_.target_kl);
         set_learning_rate(adaptive_learning_rate_);
         stats.learning_rate = adaptive_learning_rate_;
       }
@@ -181,6 +190,7 @@ UpdateStats Learner::Update() {
       stats.value_loss += loss.v_loss;
       stats.entropy += loss.entropy;
       stats.approx_kl += loss.approx_kl;
+      stats.update_kl = update_kl;
       stats.clip_fraction += loss.clipfrac;
       ++minibatches;
     }

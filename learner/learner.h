@@ -21,7 +21,8 @@ struct UpdateStats {
   double policy_loss = 0;
   double value_loss = 0;
   double entropy = 0;
-  double approx_kl = 0;
+  double approx_kl = 0;  // from the actors' behaviour policies (includes their lag)
+  double update_kl = 0;  // of the last minibatch, from the policy the update started from
   double clip_fraction = 0;
   double explained_variance = 0;
   double learning_rate = 0;

@@ -186,7 +186,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     csv << "iteration,version,samples,elapsed_s,samples_per_s,episodes,mean_return,"
            "normalized_return,episode_length,fall_rate,rotation,velocity,end_effector,com,root,"
            "policy_loss,value_loss,entropy,approx_kl,clip_fraction,explained_variance,"
-           "learning_rate,update_s,stale_dropped,rejected,idle_fraction\n";
+           "learning_rate,update_s,stale_dropped,rejected,idle_fraction,update_kl\n";
   }
 
   const auto start = Clock::now();
@@ -288,7 +288,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
           << e.Mean(e.root) << "," << u.policy_loss << "," << u.value_loss << "," << u.entropy
           << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
           << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
-          << rejected_total << "," << idle_fraction << "\n";
+          << rejected_total << "," << idle_fraction << "," << u.update_kl << "\n";
       csv.flush();
       learner.ResetEpisodeStats();
       if (learner.samples() >= next_checkpoint) {

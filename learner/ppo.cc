@@ -110,6 +110,16 @@ double ExplainedVariance(const torch::Tensor& values, const torch::Tensor& retur
   return 1.0 - (y - y_pred).var(/*unbiased=*/false).item<double>() / var_y;
 }
 
+double GaussianKl(const torch::Tensor& old_mean, const torch::Tensor& old_log_std,
+                  const torch::Tensor& mean, const torch::Tensor& log_std) {
+  torch::NoGradGuard no_grad;
+  const torch::Tensor old_var = torch::exp(2 * old_log_std);
+  const torch::Tensor var = torch::exp(2 * log_std);
+  const torch::Tensor d = old_mean - mean;
+  const torch::Tensor kl = (log_std - old_log_std) + (old_var + d * d) / (2 * var) - 0.5;
+  return kl.sum(-1).mean().item<double>();
+}
+
 double AdaptiveLearningRate(double learning_rate, double approx_kl, double target_kl) {
   constexpr double kFactor = 1.5, kMin = 1e-6, kMax = 1e-2;
   if (!std::isfinite(approx_kl)) return std::max(kMin, learning_rate / kFactor);

@@ -58,6 +58,13 @@ PpoLoss ComputePpoLoss(const PpoLossConfig& config, const torch::Tensor& newlogp
                        const torch::Tensor& b_logprobs, torch::Tensor b_advantages,
                        const torch::Tensor& b_returns, const torch::Tensor& b_values);
 
+// KL(old || new) of diagonal Gaussian policies, summed over action dimensions and averaged over
+// the batch: means [B, act], log standard deviations [act]. The update's own step (from the
+// policy it started from), which unlike approx_kl does not include the actors' policy lag.
+//   sum_a  log s_new - log s_old + (s_old^2 + (m_old - m_new)^2) / (2 s_new^2) - 1/2
+double GaussianKl(const torch::Tensor& old_mean, const torch::Tensor& old_log_std,
+                  const torch::Tensor& mean, const torch::Tensor& log_std);
+
 // 1 - Var(returns - values) / Var(returns): how much of the return the critic explains.
 double ExplainedVariance(const torch::Tensor& values, const torch::Tensor& returns);
 
@@ -65,7 +72,8 @@ double ExplainedVariance(const torch::Tensor& values, const torch::Tensor& retur
 double LinearSchedule(double initial, int64_t samples, int64_t max_steps);
 
 // The "adaptive" schedule (rl_games, as used for DeepMimic-style imitation in Isaac Gym): after
-// a minibatch whose approximate KL from the behaviour policy exceeded twice `target_kl`, the
+// a minibatch whose KL from the policy the update started from (GaussianKl) exceeded twice
+// `target_kl`, the
 // rate falls by 1.5x; below half of it, it rises by 1.5x; always within [1e-6, 1e-2]. Adam's step
 // does not shrink with the action noise, so a fixed rate that suits a wide policy moves a narrow
 // one many standard deviations per update; tying the rate to the KL keeps each update a

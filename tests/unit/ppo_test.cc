@@ -352,6 +352,23 @@ TEST(PpoSchedule, LinearDecayToZeroAtMaxSteps) {
   EXPECT_THROW(LinearSchedule(3e-4, 10, 0), std::invalid_argument);
 }
 
+TEST(PpoGaussianKl, MatchesTheClosedFormByHand) {
+  // Identical policies: 0.
+  torch::Tensor mean = torch::tensor({{0.5f, -1.0f}, {0.0f, 2.0f}});
+  torch::Tensor log_std = torch::tensor({-1.0f, 0.0f});
+  EXPECT_NEAR(GaussianKl(mean, log_std, mean, log_std), 0.0, 1e-7);
+  // One sample, one dimension: old N(0, 1), new N(0.5, e^-1):
+  // -1 - 0 + (1 + 0.25) / (2 e^-2) - 0.5 = 0.625 e^2 - 1.5 = 3.11822...
+  EXPECT_NEAR(GaussianKl(torch::tensor({{0.0f}}), torch::tensor({0.0f}), torch::tensor({{0.5f}}),
+                         torch::tensor({-1.0f})),
+              0.625 * std::exp(2.0) - 1.5, 1e-5);
+  // Summed over dimensions, averaged over samples: means shifted by 0.1 and 0.3 at std 1 give
+  // 0.005 and 0.045 per sample (d^2 / 2), so a mean of 0.025.
+  EXPECT_NEAR(GaussianKl(torch::tensor({{0.0f, 0.0f}, {0.0f, 0.0f}}), torch::tensor({0.0f, 0.0f}),
+                         torch::tensor({{0.1f, 0.0f}, {0.0f, 0.3f}}), torch::tensor({0.0f, 0.0f})),
+              0.025, 1e-6);
+}
+
 TEST(PpoSchedule, AdaptiveFollowsTheKlWithinBounds) {
   // target 0.01: above 0.02 the rate falls by 1.5, below 0.005 it rises by 1.5, else stays.
   EXPECT_DOUBLE_EQ(AdaptiveLearningRate(3e-4, 0.021, 0.01), 2e-4);
