@@ -23,6 +23,8 @@ packages=(
   libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg
   # integration tests: a real Prometheus server, queried over HTTP from the shell
   prometheus curl jq
+  # test scripts decode PNG screenshots with a few lines of Python (standard library only)
+  python3
   # `ragdoll report --png`: rsvg-convert rasterises the curves' SVG
   librsvg2-bin
   # the report's integration test opens the page in headless Chromium
