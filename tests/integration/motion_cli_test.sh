@@ -22,6 +22,11 @@ for field in duration "root travel" "per cycle" "foot contact" penetration foot_
   [ "$a" = "$b" ] || fail "'$field' differs: original '$a', imported '$b'"
 done
 grep -q '"foot_contact"' "$work/report.json" || fail "no JSON report"
+# The walk puts only its feet on the floor, and its rotations are unit quaternions.
+grep -Eq "^ground contact +right_ankle [0-9]+ % left_ankle [0-9]+ %$" "$work/original.txt" ||
+  fail "ground contact line: $(grep '^ground contact' "$work/original.txt")"
+grep -q '"ground_contacts": {' "$work/report.json" || fail "no ground_contacts in the JSON report"
+grep -Eq "^rotations +0 renormalised" "$work/original.txt" || fail "rotations line"
 
 # A truncated motion section is refused with the file, the line and the reason.
 head -n -5 "$work/walk.bvh" > "$work/truncated.bvh"
