@@ -55,8 +55,6 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
     e.metrics.actor_port = port_base + 20;
   }
 
-  // The effective configuration: the file with its paths made absolute, so that it still works
-  // from the run folder (evaluation reads it from there).
   // `allowed_contacts: auto` resolved here as the environment will resolve it, so that start-up
   // can print the list and the run's effective configuration records it.
   if (e.environment.contacts_from_clip) {
@@ -64,6 +62,9 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
     e.environment.allowed_contacts =
         sim::ClipGroundContacts(sim::LoadMotion(e.environment.motion), *character);
   }
+
+  // The effective configuration: the file with its paths made absolute and the contacts
+  // resolved, so that it still works from the run folder (evaluation reads it from there).
   YAML::Node node = YAML::LoadFile(path);
   node["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
   node["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
