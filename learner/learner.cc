@@ -32,7 +32,12 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
       critic_(observation_size, config.network),
       stats_(observation_size),
       adaptive_learning_rate_(config.learning_rate) {
-  std::vector<torch::Tensor> params = policy_->parameters();
+  std::vector<torch::Tensor> params;
+  for (const auto& p : policy_->parameters()) {
+    if (!config.learn_log_std && p.is_same(policy_->log_std)) continue;
+    params.push_back(p);
+  }
+  if (!config.learn_log_std) policy_->log_std.set_requires_grad(false);
   for (const auto& p : critic_->parameters()) params.push_back(p);
   optimizer_ = std::make_unique<torch::optim::Adam>(
       params, torch::optim::AdamOptions(config.learning_rate).eps(1e-5));
@@ -58,6 +63,18 @@ torch::Tensor Learner::Normalize(const torch::Tensor& observations) const {
   torch::Tensor m = torch::from_blob(mean.data(), {observation_size_}).clone();
   torch::Tensor v = torch::from_blob(var.data(), {observation_size_}).clone();
   return ((observations - m) / torch::sqrt(v + 1e-8)).clamp(-10, 10);
+}
+
+// The critic's output in return units, and returns in the critic's units
+// (network_settings.normalize_value); the identity when value normalisation is off.
+torch::Tensor Learner::ValueFromCritic(const torch::Tensor& output) const {
+  if (!config_.normalize_value) return output;
+  return output * std::sqrt(return_stats_.var()[0] + 1e-8) + return_stats_.mean()[0];
+}
+
+torch::Tensor Learner::ValueToCritic(const torch::Tensor& value) const {
+  if (!config_.normalize_value) return value;
+  return (value - return_stats_.mean()[0]) / std::sqrt(return_stats_.var()[0] + 1e-8);
 }
 
 UpdateStats Learner::Update() {
@@ -99,14 +116,14 @@ UpdateStats Learner::Update() {
   torch::Tensor values, next_values;
   {
     torch::NoGradGuard no_grad;
-    torch::Tensor all_values =
-        critic_->forward(Normalize(obs.reshape({N * (T + 1), O}))).reshape({N, T + 1});
+    torch::Tensor all_values = ValueFromCritic(
+        critic_->forward(Normalize(obs.reshape({N * (T + 1), O}))).reshape({N, T + 1}));
     values = all_values.slice(1, 0, T).contiguous();
     next_values = all_values.slice(1, 1, T + 1).clone();
     if (!final_at.empty()) {
       torch::Tensor f =
           torch::from_blob(finals.data(), {static_cast<int64_t>(final_at.size()), O}).clone();
-      torch::Tensor fv = critic_->forward(Normalize(f));
+      torch::Tensor fv = ValueFromCritic(critic_->forward(Normalize(f)));
       for (size_t i = 0; i < final_at.size(); ++i) {
         next_values[final_at[i].first][final_at[i].second] = fv[static_cast<int64_t>(i)];
       }
@@ -122,6 +139,14 @@ UpdateStats Learner::Update() {
   torch::Tensor b_advantages = gae.advantages.reshape({B});
   torch::Tensor b_returns = gae.returns.reshape({B});
   torch::Tensor b_values = values.reshape({B});
+  // The critic learns (and its loss is clipped) in normalised units: the statistics take in this
+  // buffer's returns first, so the targets are scaled by what they are now.
+  if (config_.normalize_value) {
+    torch::Tensor r = b_returns.contiguous();
+    return_stats_.Update(r.data_ptr<float>(), B);
+  }
+  torch::Tensor b_value_targets = ValueToCritic(b_returns);
+  torch::Tensor b_old_values = ValueToCritic(b_values);
 
   UpdateStats stats;
   using Schedule = TrainerConfig::Schedule;
@@ -170,7 +195,7 @@ UpdateStats Learner::Update() {
       PpoLoss loss =
           ComputePpoLoss(loss_config, current.log_prob, current.entropy, newvalue,
                          b_logprobs.index_select(0, idx), b_advantages.index_select(0, idx),
-                         b_returns.index_select(0, idx), b_values.index_select(0, idx));
+                         b_value_targets.index_select(0, idx), b_old_values.index_select(0, idx));
       optimizer_->zero_grad();
       loss.loss.backward();
       double norm = torch::nn::utils::clip_grad_norm_(params, config_.max_grad_norm);
@@ -253,6 +278,9 @@ void Learner::Save(const std::string& path, const std::string& config_text) {
                 torch::tensor({int64_t{observation_size_}, int64_t{action_size_}}, torch::kInt64));
   archive.write("config", c10::IValue(config_text));
   archive.write("adaptive_learning_rate", torch::tensor(adaptive_learning_rate_, torch::kFloat64));
+  archive.write("return_stats", torch::tensor({return_stats_.mean()[0], return_stats_.var()[0],
+                                               return_stats_.count()},
+                                              torch::kFloat64));
   std::string tmp = path + ".tmp";
   archive.save_to(tmp);
   std::filesystem::rename(tmp, path);
@@ -292,6 +320,13 @@ std::string Learner::Load(const std::string& path) {
     if (archive.try_read("adaptive_learning_rate", adaptive)) {
       adaptive_learning_rate_ = adaptive.item<double>();
     }
+    // Absent from checkpoints written before value normalisation: start the statistics afresh.
+    torch::Tensor returns;
+    if (archive.try_read("return_stats", returns)) {
+      returns = returns.contiguous();
+      return_stats_ = RunningStats({returns[0].item<double>()}, {returns[1].item<double>()},
+                                   returns[2].item<double>());
+    }
     c10::IValue config;
     archive.read("config", config);
     return config.toStringRef();
@@ -314,6 +349,7 @@ void Learner::LoadWeights(const std::string& path) {
   copy(*other.policy_, *policy_);
   copy(*other.critic_, *critic_);
   stats_ = other.stats_;
+  return_stats_ = other.return_stats_;
 }
 
 }  // namespace ragdoll::learner

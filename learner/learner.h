@@ -66,6 +66,7 @@ class Learner {
   int64_t stale_dropped() const { return stale_dropped_; }
   int64_t buffered_samples() const { return buffered_samples_; }
   const RunningStats& stats() const { return stats_; }
+  const RunningStats& return_stats() const { return return_stats_; }
   const EpisodeStatsSum& episodes() const { return episodes_; }
   void ResetEpisodeStats() { episodes_ = EpisodeStatsSum(); }
   GaussianPolicy& policy() { return policy_; }
@@ -74,6 +75,8 @@ class Learner {
 
  private:
   torch::Tensor Normalize(const torch::Tensor& observations) const;
+  torch::Tensor ValueFromCritic(const torch::Tensor& output) const;
+  torch::Tensor ValueToCritic(const torch::Tensor& value) const;
 
   TrainerConfig config_;
   int observation_size_, action_size_;
@@ -81,6 +84,8 @@ class Learner {
   ValueNetwork critic_;
   std::unique_ptr<torch::optim::Adam> optimizer_;
   RunningStats stats_;
+  // Running mean and variance of the value targets (network_settings.normalize_value).
+  RunningStats return_stats_{1};
   std::vector<v1::TrajectorySegment> buffer_;
   int64_t buffered_samples_ = 0;
   int64_t version_ = 0;

@@ -72,6 +72,8 @@ TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
     n.Fail("activation", "expected tanh, relu or elu");
   }
   c.network.init_log_std = n.Get<double>("init_log_std", c.network.init_log_std);
+  c.learn_log_std = n.Get<bool>("learn_log_std", c.learn_log_std);
+  c.normalize_value = n.Get<bool>("normalize_value", c.normalize_value);
   n.Finish();
 
   ConfigSection rewards = s.Section("reward_signals");

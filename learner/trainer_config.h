@@ -31,7 +31,9 @@ struct TrainerConfig {
   double value_coef = 0.5;                // weight of the value loss
   bool clip_value_loss = true;
   // network_settings
-  bool normalize = true;  // observation normalisation
+  bool normalize = true;         // observation normalisation
+  bool normalize_value = false;  // the critic learns returns scaled by their running mean and std
+  bool learn_log_std = true;     // false: the action noise stays at init_log_std (DeepMimic)
   NetworkConfig network;
   // reward_signals.extrinsic
   double gamma = 0.99;

@@ -54,6 +54,17 @@ EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_chara
            "[right_ankle, left_ankle]");
   }
   c.max_root_distance = Positive(s, "max_root_distance", c.max_root_distance);
+  std::string sync = s.Get<std::string>("sync_reference", "position");
+  if (sync == "none") {
+    c.reference_sync = ReferenceSync::kNone;
+  } else if (sync == "position") {
+    c.reference_sync = ReferenceSync::kPosition;
+  } else if (sync == "position_and_heading") {
+    c.reference_sync = ReferenceSync::kPositionAndHeading;
+  } else {
+    s.Fail("sync_reference",
+           "expected 'none', 'position' or 'position_and_heading', got '" + sync + "'");
+  }
 
   ConfigSection weights = s.Section("joint_weights");
   for (auto& [name, w] : c.joint_weights) w = NonNegative(weights, name, w);

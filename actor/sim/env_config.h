@@ -18,6 +18,16 @@ enum class ActionMode {
   kOffset,    // action in [-1, 1] offsets the reference pose by up to offset_scale * half range
 };
 
+// What of the reference root follows the character at the start of each cycle of a looping clip
+// (DeepMimic's SyncKinCharNewCycle). Without it the reference keeps its own path: any drift
+// accumulates over the episode, and the root and centre-of-mass terms then score an offset the
+// policy cannot observe.
+enum class ReferenceSync {
+  kNone,                // the reference walks its own path from the episode's start
+  kPosition,            // its horizontal root position moves to the character's (DeepMimic's walk)
+  kPositionAndHeading,  // and it turns to the character's heading
+};
+
 struct EnvConfig {
   std::string character;          // MJCF file
   std::string motion;             // reference clip (project format or DeepMimic motion file)
@@ -35,6 +45,7 @@ struct EnvConfig {
   std::vector<std::string> allowed_contacts;  // the explicit list, when not from the clip
   // The episode also ends when the root is further than this from the reference root, m.
   double max_root_distance = 1.0;
+  ReferenceSync reference_sync = ReferenceSync::kPosition;  // `sync_reference`
   // Relative importance of each joint in the rotation and velocity terms (DeepMimic's humanoid3d
   // values; a joint left out weighs 0).
   std::map<std::string, double> joint_weights = {

@@ -82,9 +82,44 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
 
   qpos_before_.resize(m->nq);
   qpos_after_.resize(m->nq);
+  qvel_scratch_.resize(m->nv);
 }
 
 void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const {
+  ClipState(time, qpos, qvel);
+  if (reference_yaw_ == 0 && reference_offset_[0] == 0 && reference_offset_[1] == 0) return;
+  const double c = std::cos(reference_yaw_), s = std::sin(reference_yaw_);
+  const double x = qpos[0], y = qpos[1];
+  qpos[0] = c * x - s * y + reference_offset_[0];
+  qpos[1] = s * x + c * y + reference_offset_[1];
+  const Quat turned =
+      Multiply(AxisAngle({0, 0, 1}, reference_yaw_), Quat{qpos[3], qpos[4], qpos[5], qpos[6]});
+  std::copy(turned.begin(), turned.end(), qpos + 3);
+  // The free joint's linear velocity is in world axes (turned with the path); its angular
+  // velocity is in the root's own axes, which turn with the root.
+  const double vx = qvel[0], vy = qvel[1];
+  qvel[0] = c * vx - s * vy;
+  qvel[1] = s * vx + c * vy;
+}
+
+void ImitationEnv::SyncReference(double time) {
+  const double* root = data_->qpos;
+  std::vector<double> qpos(character_->model()->nq);
+  if (config_.reference_sync == ReferenceSync::kPositionAndHeading) {
+    ReferenceState(time, qpos.data(), qvel_scratch_.data());
+    auto yaw = [](const double* q) {
+      return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
+    };
+    reference_yaw_ += yaw(root + 3) - yaw(qpos.data() + 3);
+  }
+  // With the yaw fixed, the offset that puts the reference root over the character's.
+  ClipState(time, qpos.data(), qvel_scratch_.data());
+  const double c = std::cos(reference_yaw_), s = std::sin(reference_yaw_);
+  reference_offset_[0] = root[0] - (c * qpos[0] - s * qpos[1]);
+  reference_offset_[1] = root[1] - (s * qpos[0] + c * qpos[1]);
+}
+
+void ImitationEnv::ClipState(double time, double* qpos, double* qvel) const {
   clip_->SampleInto(time, &pose_scratch_);
   character_->PoseToQpos(pose_scratch_, qpos);
   Vec3 linear, angular;
@@ -118,6 +153,8 @@ void ImitationEnv::ResetAtPhase(double phase, float* observation) {
   mjData* d = data_.get();
   mj_resetData(m, d);
   time_ = phase * clip_->duration();
+  reference_yaw_ = 0;
+  reference_offset_[0] = reference_offset_[1] = 0;
   ReferenceState(time_, d->qpos, d->qvel);
   mj_forward(m, d);
 
@@ -273,6 +310,13 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   for (int s = 0; s < config_.substeps; ++s) {
     mj_step2(m, d);
     mj_step1(m, d);
+  }
+  // A new cycle of a looping clip: the reference moves onto the character (DeepMimic), so drift
+  // from earlier cycles is not scored again. The hinge targets above do not depend on it.
+  if (config_.reference_sync != ReferenceSync::kNone && clip_->loop() &&
+      std::floor(next_time / clip_->duration()) > std::floor(time_ / clip_->duration())) {
+    SyncReference(next_time);
+    ReferenceState(next_time, ref->qpos, ref->qvel);
   }
   time_ = next_time;
   ++episode_.length;

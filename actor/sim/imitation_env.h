@@ -103,6 +103,11 @@ class ImitationEnv {
   RewardTerms RewardAt(double time);
 
  private:
+  // The clip's own state at `time`, before the reference frame (ReferenceState applies it).
+  void ClipState(double time, double* qpos, double* qvel) const;
+  // At the start of a new cycle, moves the reference frame onto the character
+  // (EnvConfig::reference_sync).
+  void SyncReference(double time);
   void Features(const mjData& d, PoseFeatures* out) const;
   // Scores data_ against the reference state already in ref_data_.
   RewardTerms Score();
@@ -121,9 +126,14 @@ class ImitationEnv {
   std::vector<char> may_touch_ground_;  // per body
   // Reference joint coordinates just before and after a time, for velocities by differences.
   mutable std::vector<double> qpos_before_, qpos_after_;
+  std::vector<double> qvel_scratch_;
   mutable Pose pose_scratch_;
   PoseFeatures sim_features_, ref_features_;
   double time_ = 0;
+  // Where the reference is drawn: the clip turned by reference_yaw_ about the vertical and moved
+  // by reference_offset_ horizontally; identity at every reset.
+  double reference_yaw_ = 0;
+  double reference_offset_[2] = {0, 0};
   EpisodeStats episode_;
   RewardTerms term_sums_;
   int64_t bad_actions_ = 0;

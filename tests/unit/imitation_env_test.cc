@@ -174,6 +174,60 @@ TEST_F(ImitationEnvTest, RootFarFromTheReferenceTerminates) {
   EXPECT_EQ(env->episode().end, EpisodeEnd::kStrayed);
 }
 
+// At the start of each cycle of a looping clip the reference moves onto the character
+// (sync_reference), as DeepMimic does: a character standing 0.3 m beside the reference and turned
+// by 0.2 rad is scored against the offset until the cycle ends, and against its own place after.
+TEST_F(ImitationEnvTest, ReferenceFollowsTheCharacterAtEachNewCycle) {
+  auto yaw = [](const double* q) {
+    return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
+  };
+  for (ReferenceSync sync :
+       {ReferenceSync::kNone, ReferenceSync::kPosition, ReferenceSync::kPositionAndHeading}) {
+    SCOPED_TRACE(static_cast<int>(sync));
+    config_.random_start = false;
+    config_.reference_sync = sync;
+    auto env = Make(RestClip(true, 1.0));
+    std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size);
+    env->ResetAtPhase(0.88, obs.data());  // the 4th control step crosses into the next cycle
+    const mjModel* m = env->character().model();
+    std::vector<double> qpos(env->data().qpos, env->data().qpos + m->nq);
+    std::vector<double> qvel(m->nv, 0.0), ref_qpos(m->nq), ref_qvel(m->nv);
+    qpos[0] += 0.3;
+    Quat turned = Multiply(AxisAngle({0, 0, 1}, 0.2), Quat{qpos[3], qpos[4], qpos[5], qpos[6]});
+    std::copy(turned.begin(), turned.end(), qpos.begin() + 3);
+    env->SetState(qpos.data(), qvel.data());
+    double root_before = 0;
+    for (int i = 1; i <= 5; ++i) {
+      env->ReferenceAction(action.data());
+      StepResult s = env->Step(action.data(), obs.data());
+      ASSERT_FALSE(s.terminated) << i;
+      env->ReferenceState(env->time(), ref_qpos.data(), ref_qvel.data());
+      const double* root = env->data().qpos;
+      const double dx = root[0] - ref_qpos[0], dy = root[1] - ref_qpos[1];
+      const double dyaw = yaw(root + 3) - yaw(ref_qpos.data() + 3);
+      if (i <= 3 || sync == ReferenceSync::kNone) {  // steps 1-3 end before t = 1
+        EXPECT_NEAR(dx, 0.3, 0.02) << i;
+        EXPECT_NEAR(dyaw, 0.2, 0.02) << i;
+        root_before = s.terms.root;
+      } else {  // step 4 ends at t = 1.013, in the new cycle; step 5 within it
+        EXPECT_NEAR(dx, 0, i == 4 ? 1e-9 : 0.01) << i;
+        EXPECT_NEAR(dy, 0, i == 4 ? 1e-9 : 0.01) << i;
+        if (sync == ReferenceSync::kPositionAndHeading) {
+          EXPECT_NEAR(dyaw, 0, i == 4 ? 1e-9 : 0.01) << i;
+        } else {
+          EXPECT_NEAR(dyaw, 0.2, 0.02) << i;
+        }
+        EXPECT_GT(s.terms.root, root_before + 0.2) << i;  // exp(-5 * 0.09) = 0.64 before
+      }
+    }
+    // A reset puts the reference back on the clip's own path.
+    env->ResetAtPhase(0.5, obs.data());
+    env->ReferenceState(env->time(), ref_qpos.data(), ref_qvel.data());
+    EXPECT_EQ(ref_qpos[0], 0);
+    EXPECT_EQ(env->data().qpos[0], 0);
+  }
+}
+
 TEST_F(ImitationEnvTest, TimeLimitTruncates) {
   config_.random_start = false;
   config_.max_episode_steps = 5;

@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
 
 #include "common/config_section.h"
+#include "learner/ppo.h"
 #include "learner/trainer_config.h"
 
 namespace ragdoll::learner {
@@ -29,13 +31,13 @@ TrainerConfig SmallConfig() {
 }
 
 // A valid segment of random numbers, with one inner truncation and one termination.
-v1::TrajectorySegment RandomSegment(std::mt19937& rng, int64_t version) {
+v1::TrajectorySegment RandomSegment(std::mt19937& rng, int64_t version, float reward_scale = 1) {
   std::normal_distribution<float> g(0, 1);
   std::vector<float> obs((kT + 1) * kObs), act(kT * kAct), logp(kT), rew(kT), fin(kObs);
   for (float& x : obs) x = g(rng);
   for (float& x : act) x = g(rng);
   for (float& x : logp) x = -2 + 0.1f * g(rng);
-  for (float& x : rew) x = g(rng);
+  for (float& x : rew) x = reward_scale * g(rng);
   for (float& x : fin) x = g(rng);
   std::vector<uint8_t> term(kT, 0), trunc(kT, 0);
   trunc[3] = 1;
@@ -57,10 +59,11 @@ v1::TrajectorySegment RandomSegment(std::mt19937& rng, int64_t version) {
   return s;
 }
 
-void Fill(Learner& learner, uint32_t seed) {
+void Fill(Learner& learner, uint32_t seed, float reward_scale = 1) {
   std::mt19937 rng(seed);
   while (!learner.Ready()) {
-    ASSERT_EQ(learner.Add(RandomSegment(rng, learner.version())), Learner::Accept::kAccepted);
+    ASSERT_EQ(learner.Add(RandomSegment(rng, learner.version(), reward_scale)),
+              Learner::Accept::kAccepted);
   }
 }
 
@@ -180,6 +183,95 @@ TEST_F(LearnerTest, AdaptiveScheduleMovesTheRateAndResumesIt) {
   EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
 }
 
+// normalize_value: the critic learns returns scaled by their running mean and std. The statistics
+// after one update are those of the update's value targets, computed here from the segments by
+// the reference GAE; the value loss is in units of their spread whatever the reward scale.
+TEST_F(LearnerTest, ValueNormalisationScalesTheTargetsByTheirStatistics) {
+  constexpr float kScale = 1000;
+  TrainerConfig config = SmallConfig();
+  config.normalize_value = true;
+  torch::manual_seed(1);
+  Learner learner(config, kObs, kAct);
+  // The value targets as the learner computes them: the critic's output (statistics at mean 0,
+  // variance 1 before the first update) on observations normalised by fresh statistics.
+  std::mt19937 rng(1);
+  const int64_t n = config.buffer_size / kT;
+  torch::Tensor obs = torch::empty({n, kT + 1, kObs}), rewards = torch::empty({n, kT});
+  torch::Tensor term = torch::zeros({n, kT}), trunc = torch::zeros({n, kT});
+  torch::Tensor finals = torch::empty({n, kObs});
+  for (int64_t i = 0; i < n; ++i) {
+    v1::TrajectorySegment s = RandomSegment(rng, 0, kScale);
+    std::memcpy(obs[i].data_ptr<float>(), s.observations().data().data(), (kT + 1) * kObs * 4);
+    std::memcpy(rewards[i].data_ptr<float>(), s.rewards().data().data(), kT * 4);
+    std::memcpy(finals[i].data_ptr<float>(), s.final_observations().data().data(), kObs * 4);
+    term[i][6] = 1;
+    trunc[i][3] = 1;
+  }
+  torch::Tensor values, next_values;
+  {
+    torch::NoGradGuard no_grad;
+    const double unit = std::sqrt(1 + 1e-8);
+    auto value = [&](const torch::Tensor& o) {
+      return learner.critic()->forward((o / unit).clamp(-10, 10)) * unit;
+    };
+    torch::Tensor all = value(obs.reshape({-1, kObs})).reshape({n, kT + 1});
+    values = all.slice(1, 0, kT).contiguous();
+    next_values = all.slice(1, 1, kT + 1).clone();
+    next_values.select(1, 3).copy_(value(finals));
+  }
+  torch::Tensor returns =
+      ComputeGae(rewards, values, next_values, term, trunc, config.gamma, config.lambd).returns;
+  const double mean = returns.mean().item<double>();
+  const double var = returns.to(torch::kFloat64).var(/*unbiased=*/false).item<double>();
+  ASSERT_GT(var, 1e4);  // the scale is what the normalisation must take out
+
+  Fill(learner, 1, kScale);
+  UpdateStats u = learner.Update();
+  EXPECT_EQ(learner.return_stats().count(), 32);
+  EXPECT_NEAR(learner.return_stats().mean()[0], mean, 1e-4 * std::sqrt(var));
+  EXPECT_NEAR(learner.return_stats().var()[0], var, 1e-4 * var);
+  EXPECT_LT(u.value_loss, 5);  // ~0.5 for unit-variance targets and a critic near 0
+
+  // Without it, the same data gives a loss in the targets' own (squared) units.
+  torch::manual_seed(1);
+  Learner plain(SmallConfig(), kObs, kAct);
+  Fill(plain, 1, kScale);
+  EXPECT_GT(plain.Update().value_loss, 0.1 * var);
+  EXPECT_EQ(plain.return_stats().count(), 0);
+
+  // A checkpoint carries the statistics.
+  const std::string path = (dir_ / "value_norm.pt").string();
+  learner.Save(path, "");
+  Learner restored(config, kObs, kAct);
+  restored.Load(path);
+  EXPECT_EQ(restored.return_stats().mean(), learner.return_stats().mean());
+  EXPECT_EQ(restored.return_stats().var(), learner.return_stats().var());
+  EXPECT_EQ(restored.return_stats().count(), 32);
+}
+
+// network_settings.learn_log_std: false keeps the action noise where init_log_std put it, even
+// with an entropy bonus pulling on it; true lets the update move it.
+TEST_F(LearnerTest, FixedActionNoiseStaysAtItsInitialValue) {
+  for (bool learn : {false, true}) {
+    TrainerConfig config = SmallConfig();
+    config.learn_log_std = learn;
+    config.beta = 0.1;
+    config.network.init_log_std = -1.5;
+    torch::manual_seed(1);
+    Learner learner(config, kObs, kAct);
+    Fill(learner, 1);
+    UpdateStats u = learner.Update();
+    EXPECT_TRUE(std::isfinite(u.policy_loss));
+    torch::Tensor moved = (learner.policy()->log_std + 1.5).abs().max();
+    if (learn) {
+      EXPECT_GT(moved.item<float>(), 1e-5);
+    } else {
+      EXPECT_EQ(moved.item<float>(), 0.0f);
+      EXPECT_NEAR(u.entropy, kAct * (0.5 + 0.5 * std::log(2 * M_PI) - 1.5), 1e-5);
+    }
+  }
+}
+
 TEST_F(LearnerTest, BadCheckpointsAreRejectedNamingTheFile) {
   Learner learner(SmallConfig(), kObs, kAct);
   const std::string garbage = (dir_ / "garbage.pt").string();
@@ -224,6 +316,21 @@ TEST_F(LearnerTest, SnapshotCarriesPolicyAndStatistics) {
   for (int i = 0; i < kObs; ++i) {
     EXPECT_NEAR(stats.mean()[i], learner.stats().mean()[i], 1e-6);
   }
+}
+
+TEST(TrainerConfig, ReadsValueNormalisationAndFixedNoise) {
+  TrainerConfig defaults = ReadTrainerConfig(ConfigSection::FromString("{}", "t.yaml"));
+  EXPECT_FALSE(defaults.normalize_value);
+  EXPECT_TRUE(defaults.learn_log_std);
+  TrainerConfig c = ReadTrainerConfig(ConfigSection::FromString(
+      "network_settings: {normalize_value: true, learn_log_std: false, init_log_std: -2}",
+      "t.yaml"));
+  EXPECT_TRUE(c.normalize_value);
+  EXPECT_FALSE(c.learn_log_std);
+  EXPECT_EQ(c.network.init_log_std, -2);
+  EXPECT_THROW(ReadTrainerConfig(ConfigSection::FromString(
+                   "network_settings: {normalize_value: maybe}", "t.yaml")),
+               ConfigError);
 }
 
 TEST(TrainerConfig, ReadsTheLearningRateSchedule) {
