@@ -54,7 +54,7 @@ EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_chara
            "[right_ankle, left_ankle]");
   }
   c.max_root_distance = Positive(s, "max_root_distance", c.max_root_distance);
-  std::string sync = s.Get<std::string>("sync_reference", "position");
+  std::string sync = s.Get<std::string>("sync_reference", "position_and_heading");
   if (sync == "none") {
     c.reference_sync = ReferenceSync::kNone;
   } else if (sync == "position") {

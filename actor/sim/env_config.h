@@ -45,7 +45,7 @@ struct EnvConfig {
   std::vector<std::string> allowed_contacts;  // the explicit list, when not from the clip
   // The episode also ends when the root is further than this from the reference root, m.
   double max_root_distance = 1.0;
-  ReferenceSync reference_sync = ReferenceSync::kPosition;  // `sync_reference`
+  ReferenceSync reference_sync = ReferenceSync::kPositionAndHeading;  // `sync_reference`
   // Relative importance of each joint in the rotation and velocity terms (DeepMimic's humanoid3d
   // values; a joint left out weighs 0).
   std::map<std::string, double> joint_weights = {

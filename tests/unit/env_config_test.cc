@@ -69,7 +69,7 @@ TEST(EnvConfig, ReadsEveryKey) {
       "start_phase: 0.5\n"
       "allowed_contacts: [right_ankle, left_ankle, right_wrist]\n"
       "max_root_distance: 0.5\n"
-      "sync_reference: position_and_heading\n"
+      "sync_reference: position\n"
       "joint_weights: {neck: 0, chest: 1.5}\n"
       "reward: {rotation_weight: 0.7, com_scale: 20, root_rotation_factor: 0.5}\n");
   EXPECT_EQ(c.character, "other.xml");
@@ -84,7 +84,7 @@ TEST(EnvConfig, ReadsEveryKey) {
   EXPECT_EQ(c.allowed_contacts,
             (std::vector<std::string>{"right_ankle", "left_ankle", "right_wrist"}));
   EXPECT_EQ(c.max_root_distance, 0.5);
-  EXPECT_EQ(c.reference_sync, ReferenceSync::kPositionAndHeading);
+  EXPECT_EQ(c.reference_sync, ReferenceSync::kPosition);
   EXPECT_EQ(c.joint_weights.at("neck"), 0);
   EXPECT_EQ(c.joint_weights.at("chest"), 1.5);
   EXPECT_EQ(c.joint_weights.at("right_hip"), 0.5);  // unchanged
@@ -105,7 +105,7 @@ TEST(EnvConfig, BadValuesNameTheKey) {
   EXPECT_EQ(ReadError("motion: walk.json\nsync_reference: always\n"),
             "env.yaml:2: sync_reference: expected 'none', 'position' or 'position_and_heading', "
             "got 'always'");
-  EXPECT_EQ(Read("motion: walk.json\n").reference_sync, ReferenceSync::kPosition);
+  EXPECT_EQ(Read("motion: walk.json\n").reference_sync, ReferenceSync::kPositionAndHeading);
   EXPECT_EQ(ReadError("motion: walk.json\nsubsteps: 0\n"),
             "env.yaml:2: substeps: must be at least 1");
   EXPECT_EQ(ReadError("motion: walk.json\naction_mode: foo\n"),
