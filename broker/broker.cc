@@ -1,5 +1,6 @@
 #include "broker/broker.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 
@@ -30,7 +31,12 @@ struct Broker::Metrics {
         actors(
             m.Gauge("ragdoll_broker_actors_connected", "Actors heard from within actor_timeout")),
         snapshot_version(m.Gauge("ragdoll_broker_snapshot_version",
-                                 "Policy version of the cached snapshot (-1: none yet)")) {
+                                 "Policy version of the cached snapshot (-1: none yet)")),
+        replicas(m.Gauge("ragdoll_broker_learner_replicas",
+                         "Learner replicas in the newest group the broker formed")),
+        replica_groups(m.Counter("ragdoll_broker_learner_groups_total",
+                                 "Groups of learner replicas formed (a restarted group counts "
+                                 "again)")) {
     snapshot_version.Set(-1);
     for (const char* socket : {"trajectories", "snapshots", "control"}) {
       for (int r = 1; r <= static_cast<int>(wire::Rejection::kRunId); ++r) {
@@ -43,7 +49,8 @@ struct Broker::Metrics {
   }
   prometheus::Counter &forwarded, &forwarded_bytes, &received_bytes, &snapshots_received,
       &snapshots_published, &snapshot_requests, &heartbeats;
-  prometheus::Gauge &actors, &snapshot_version;
+  prometheus::Gauge &actors, &snapshot_version, &replicas;
+  prometheus::Counter& replica_groups;
   std::map<std::string, std::vector<prometheus::Counter*>> rejected;  // [socket][reason - 1]
 };
 
@@ -143,6 +150,19 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
                                      config_.endpoints.max_message_bytes, &header, &offset);
   if (!v.ok()) return Reject(v, "control");
   if (!CheckRun(header, "control")) return;
+  if (header.kind() == v1::KIND_REPLICA_HELLO) {
+    v1::ReplicaHello hello;
+    if (!hello.ParseFromArray(static_cast<const char*>(message.data()) + offset,
+                              static_cast<int>(message.size() - offset))) {
+      return Reject({wire::Rejection::kMalformed, "replica hello does not parse"}, "control");
+    }
+    if (hello.replicas() < 1 || hello.replicas() > 4096 || hello.store_port() <= 0 ||
+        hello.store_port() > 65535 || hello.address().empty() || hello.replica_id().empty()) {
+      return Reject({wire::Rejection::kMalformed, "replica hello with an impossible group"},
+                    "control");
+    }
+    return HandleReplicaHello(identity.to_string(), hello);
+  }
   last_seen_[header.sender()] = Clock::now();
   switch (header.kind()) {
     case v1::KIND_HELLO:
@@ -165,6 +185,60 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
     default:
       Reject({wire::Rejection::kKind, "unexpected kind on the control socket"}, "control");
   }
+}
+
+void Broker::HandleReplicaHello(const std::string& identity, const v1::ReplicaHello& hello) {
+  const auto now = Clock::now();
+  auto [it, fresh] = pending_replicas_.try_emplace(hello.replica_id());
+  if (fresh) {
+    it->second.first_asked = now;
+    std::fprintf(stderr, "broker: learner replica %s asks for a group of %d\n",
+                 hello.replica_id().c_str(), hello.replicas());
+  }
+  it->second.identity = identity;
+  it->second.hello = hello;
+  it->second.last_asked = now;
+  // Forget replicas that stopped asking, and gather the ones that agree on the group size.
+  std::vector<const PendingReplica*> group;
+  for (auto p = pending_replicas_.begin(); p != pending_replicas_.end();) {
+    if (now - p->second.last_asked > std::chrono::seconds(3)) {
+      p = pending_replicas_.erase(p);
+      continue;
+    }
+    if (p->second.hello.replicas() == hello.replicas()) group.push_back(&p->second);
+    ++p;
+  }
+  if (static_cast<int>(group.size()) < hello.replicas()) return;
+  // Rank 0 holds the newest checkpoint; among equals, the first to ask.
+  std::sort(group.begin(), group.end(), [](const PendingReplica* a, const PendingReplica* b) {
+    if (a->hello.checkpoint_samples() != b->hello.checkpoint_samples()) {
+      return a->hello.checkpoint_samples() > b->hello.checkpoint_samples();
+    }
+    return a->first_asked < b->first_asked;
+  });
+  group.resize(static_cast<size_t>(hello.replicas()));
+  ++replica_groups_;
+  metrics_->replica_groups.Increment();
+  metrics_->replicas.Set(hello.replicas());
+  const v1::ReplicaHello& zero = group[0]->hello;
+  std::vector<std::string> placed;
+  for (size_t rank = 0; rank < group.size(); ++rank) {
+    v1::ReplicaAssignment a;
+    a.set_rank(static_cast<int>(rank));
+    a.set_replicas(hello.replicas());
+    a.set_store_host(zero.address());
+    a.set_store_port(zero.store_port());
+    a.set_group(replica_groups_);
+    const std::string reply = wire::Pack(v1::KIND_REPLICA_ASSIGNMENT, run_id_, "broker", a);
+    control_.send(zmq::buffer(group[rank]->identity),
+                  zmq::send_flags::sndmore | zmq::send_flags::dontwait);
+    control_.send(zmq::buffer(reply), zmq::send_flags::dontwait);
+    placed.push_back(group[rank]->hello.replica_id());
+  }
+  std::fprintf(stderr, "broker: learner group %lld of %d replicas: rank 0 %s (store %s:%d)\n",
+               static_cast<long long>(replica_groups_), hello.replicas(), placed[0].c_str(),
+               zero.address().c_str(), zero.store_port());
+  for (const auto& id : placed) pending_replicas_.erase(id);
 }
 
 void Broker::PollOnce(int timeout_ms) {

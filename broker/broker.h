@@ -52,12 +52,16 @@ class Broker {
   BrokerCounters counters() const;
   int ActorsAlive() const;
   int64_t snapshot_version() const { return snapshot_version_; }
+  int64_t replica_groups() const { return replica_groups_; }
 
  private:
   using Clock = std::chrono::steady_clock;
   void HandleTrajectory(zmq::message_t& message);
   void HandleSnapshot(zmq::message_t& message);
   void HandleControl(zmq::message_t& identity, zmq::message_t& message);
+  // A learner replica's request: places it, and when `replicas` fresh requests agree, assigns
+  // the ranks of a new group.
+  void HandleReplicaHello(const std::string& identity, const v1::ReplicaHello& hello);
   // Counts a dropped message and logs at most once a minute per reason.
   void Reject(const wire::Verdict& verdict, const char* where);
   bool CheckRun(const v1::Header& header, const char* where);
@@ -72,6 +76,13 @@ class Broker {
   std::string snapshot_;            // the newest snapshot message, as received
   int64_t snapshot_version_ = -1;
   std::map<std::string, Clock::time_point> last_seen_;
+  struct PendingReplica {
+    std::string identity;  // the ROUTER identity to answer
+    v1::ReplicaHello hello;
+    Clock::time_point first_asked, last_asked;
+  };
+  std::map<std::string, PendingReplica> pending_replicas_;  // by replica_id
+  int64_t replica_groups_ = 0;
   std::array<Clock::time_point, 9> last_logged_{};
   std::unique_ptr<MetricsEndpoint> own_metrics_;  // when the caller gave none
   struct Metrics;

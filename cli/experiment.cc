@@ -40,6 +40,7 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
   e.broker.actor_timeout = broker.Get<double>("actor_timeout", e.broker.actor_timeout);
   if (!(e.broker.actor_timeout > 0)) broker.Fail("actor_timeout", "must be positive");
   broker.Finish();
+  e.learner = learner::ReadReplicaSettings(root.Section("learner"));
   e.metrics = ReadMetricsConfig(root.Section("metrics"));
   root.Finish();
 
@@ -50,9 +51,11 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
     p.snapshot_port = port_base + 2;
     p.learner_port = port_base + 3;
     p.learner_snapshot_port = port_base + 4;
+    e.learner.store_port = port_base + 5;
     e.metrics.learner_port = port_base + 10;
     e.metrics.broker_port = port_base + 11;
     e.metrics.actor_port = port_base + 20;
+    e.metrics.learner_replica_port = port_base + 50;
   }
 
   // `allowed_contacts: auto` resolved here as the environment will resolve it, so that start-up

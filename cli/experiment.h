@@ -8,6 +8,7 @@
 #include "actor/sim/env_config.h"
 #include "broker/broker.h"
 #include "common/metrics.h"
+#include "learner/learner_process.h"
 #include "learner/trainer_config.h"
 
 namespace ragdoll::cli {
@@ -18,6 +19,7 @@ struct Experiment {
   std::string text;  // the effective configuration (YAML, paths made absolute)
   sim::EnvConfig environment;
   learner::TrainerConfig trainer;
+  learner::ReplicaSettings learner;  // the `learner:` section
   broker::BrokerConfig broker;
   int actor_count = 0;       // actors.count; 0 = cores - 1, at least 1
   actor::ActorConfig actor;  // per-actor settings (id, run id and seed are set per process)
@@ -25,8 +27,9 @@ struct Experiment {
 };
 
 // Reads `path`; throws ConfigError naming file, line, key and a hint for any problem.
-// `port_base` > 0 moves the five broker ports to port_base .. port_base + 4 and the metrics
-// ports to port_base + 10 (learner), + 11 (broker) and + 20 + i (actor i).
+// `port_base` > 0 moves the five broker ports to port_base .. port_base + 4, the learner replicas'
+// store to port_base + 5 and the metrics ports to port_base + 10 (learner), + 11 (broker),
+// + 20 + i (actor i) and + 50 + i (learner replica i >= 1).
 Experiment ReadExperiment(const std::string& path, int port_base = 0);
 
 // actors.count resolved: cores - 1, at least 1, when not set.

@@ -88,9 +88,12 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
                                                 : "from the config",
                contacts.c_str());
   const int actors = options.actors > 0 ? options.actors : ResolveActorCount(e.actor_count);
-  std::fprintf(
-      stderr, "ragdoll train: run %s in %s: 1 broker, 1 learner, %d actor%s x %d environments\n",
-      run_id.c_str(), run_dir.c_str(), actors, actors == 1 ? "" : "s", e.actor.environments);
+  const int replicas = options.replicas > 0 ? options.replicas : e.learner.replicas;
+  std::fprintf(stderr,
+               "ragdoll train: run %s in %s: 1 broker, %d learner%s, %d actor%s x %d "
+               "environments\n",
+               run_id.c_str(), run_dir.c_str(), replicas, replicas == 1 ? "" : " replicas", actors,
+               actors == 1 ? "" : "s", e.actor.environments);
 
   std::vector<std::string> common = {options.config, "--run-id", run_id};
   if (options.port_base > 0) {
@@ -112,18 +115,31 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
     children.push_back(c);
   };
   launch("broker", args("broker", {}));
-  std::vector<std::string> learner_extra = {"--run-dir", run_dir.string()};
-  if (options.resume) learner_extra.push_back("--resume");
-  if (!options.init_from.empty()) {
-    learner_extra.push_back("--init-from");
-    learner_extra.push_back(options.init_from);
-  }
-  launch("learner", args("learner", learner_extra));
+  // The learner, or a group of replicas that the broker ranks. A replica that fails breaks the
+  // group: the others stop, and the whole group restarts from the last checkpoint.
+  auto launch_learners = [&](bool resume) {
+    for (int i = 0; i < replicas; ++i) {
+      std::vector<std::string> extra = {"--run-dir", run_dir.string()};
+      if (resume) extra.push_back("--resume");
+      if (!resume && !options.init_from.empty()) {
+        extra.push_back("--init-from");
+        extra.push_back(options.init_from);
+      }
+      if (replicas > 1) {
+        extra.insert(extra.end(),
+                     {"--replicas", std::to_string(replicas), "--index", std::to_string(i)});
+      }
+      launch(replicas > 1 ? "learner-" + std::to_string(i) : "learner", args("learner", extra));
+    }
+  };
+  launch_learners(options.resume);
   for (int i = 0; i < actors; ++i) {
     launch("actor-" + std::to_string(i), args("actor", {"--index", std::to_string(i)}));
   }
 
   int exit_code = 0;
+  int group_restarts = 0;
+  const int kMaxGroupRestarts = 5;
   while (!stop.load()) {
     int status = 0;
     pid_t pid = waitpid(-1, &status, WNOHANG);
@@ -131,22 +147,45 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
       continue;
     }
+    bool group_broke = false;
     for (auto& c : children) {
       if (c.pid != pid) continue;
       c.running = false;
       c.status = status;
       bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-      if (c.role == "learner") {
-        exit_code = ok ? 0 : 1;
-        if (!ok) std::fprintf(stderr, "ragdoll train: the learner failed\n");
+      if (c.role.rfind("learner", 0) == 0) {
+        if (!ok && replicas > 1 && !stop.load()) {
+          group_broke = true;
+          std::fprintf(stderr, "ragdoll train: %s failed (%s)\n", c.role.c_str(),
+                       WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit");
+        } else if (!ok) {
+          exit_code = 1;
+          std::fprintf(stderr, "ragdoll train: the learner failed\n");
+        }
       } else {
         std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
                      WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
                      c.role == "broker" ? "" : "; training continues with the others");
       }
     }
+    if (group_broke) {
+      if (group_restarts == kMaxGroupRestarts) {
+        std::fprintf(stderr, "ragdoll train: the learner group broke %d times; giving up\n",
+                     kMaxGroupRestarts + 1);
+        exit_code = 1;
+        break;
+      }
+      ++group_restarts;
+      Stop(children, "learner", 60);
+      std::fprintf(stderr,
+                   "ragdoll train: restarting the %d learner replicas from the last checkpoint "
+                   "(restart %d of at most %d)\n",
+                   replicas, group_restarts, kMaxGroupRestarts);
+      launch_learners(true);
+      continue;
+    }
     bool learner_running = false;
-    for (const auto& c : children) learner_running |= c.role == "learner" && c.running;
+    for (const auto& c : children) learner_running |= c.role.rfind("learner", 0) == 0 && c.running;
     if (!learner_running) break;
   }
   // Actors first (nothing to save), then the learner (final checkpoint), then the broker.

@@ -16,6 +16,7 @@ struct TrainOptions {
   std::string init_from;
   int actors = 0;  // 0: from the config (actors.count), else cores - 1
   int port_base = 0;
+  int replicas = 0;  // learner replicas; 0: from the config (learner.replicas)
 };
 
 int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop);

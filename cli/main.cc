@@ -67,11 +67,13 @@ int main(int argc, char** argv) {
   train_cmd->add_option("--init-from", train.init_from, "start from another run's weights");
   train_cmd->add_option("--actors", train.actors, "actor processes (default: cores - 1)");
   train_cmd->add_option("--port-base", train.port_base, "use ports PORT_BASE..PORT_BASE+4");
+  train_cmd->add_option("--replicas", train.replicas,
+                        "learner replicas (default: the config's learner.replicas)");
 
   // The distributed roles also read their options from RAGDOLL_* environment variables (for
   // containers); a command-line option wins over its variable.
   std::string config, run_id, run_dir, init_from, broker_host;
-  int port_base = 0, index = 0, metrics_port = -1;
+  int port_base = 0, index = 0, metrics_port = -1, replicas = 0;
   bool resume = false;
   auto* broker_cmd = app.add_subcommand("broker", "run the broker");
   auto* learner_cmd = app.add_subcommand("learner", "run the learner");
@@ -96,6 +98,14 @@ int main(int argc, char** argv) {
   learner_cmd->add_flag("--resume", resume, "continue from the newest checkpoint in the run")
       ->envname("RAGDOLL_RESUME");
   learner_cmd->add_option("--init-from", init_from, "start from another run's weights");
+  learner_cmd
+      ->add_option("--replicas", replicas,
+                   "learner replicas in the group (default: the "
+                   "config's learner.replicas)")
+      ->envname("RAGDOLL_LEARNER_REPLICAS");
+  learner_cmd
+      ->add_option("--index", index, "replica number on this host, for its id and metrics port")
+      ->envname("RAGDOLL_LEARNER_INDEX");
   actor_cmd->add_option("--index", index, "actor number, for its id, seed and metrics port")
       ->envname("RAGDOLL_ACTOR_INDEX");
 
@@ -215,7 +225,11 @@ int main(int argc, char** argv) {
       l.resume = resume;
       l.init_from = init_from;
       l.metrics_bind = e.metrics.bind;
-      l.metrics_port = metrics_port_of(e.metrics.learner_port);
+      l.metrics_port = metrics_port_of(index == 0 ? e.metrics.learner_port
+                                                  : e.metrics.learner_replica_port + index);
+      l.replica = e.learner;
+      if (replicas > 0) l.replica.replicas = replicas;
+      l.replica_id = Hostname() + "-learner-" + std::to_string(index);
       return learner::RunLearner(e.trainer, l, e.broker.endpoints, g_stop);
     }
   } catch (const ConfigError& error) {

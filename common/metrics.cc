@@ -23,6 +23,7 @@ MetricsConfig ReadMetricsConfig(const ConfigSection& s) {
   m.learner_port = s.GetPort("learner_port", m.learner_port);
   m.broker_port = s.GetPort("broker_port", m.broker_port);
   m.actor_port = s.GetPort("actor_port", m.actor_port);
+  m.learner_replica_port = s.GetPort("learner_replica_port", m.learner_replica_port);
   s.Finish();
   return m;
 }

@@ -25,6 +25,8 @@ struct MetricsConfig {
   int learner_port = 9300;
   int broker_port = 9301;
   int actor_port = 9310;  // `ragdoll train` gives actor i the port actor_port + i
+  // and learner replica i >= 1 the port learner_replica_port + i (replica 0: learner_port)
+  int learner_replica_port = 9350;
 };
 
 MetricsConfig ReadMetricsConfig(const ConfigSection& section);

@@ -10,25 +10,38 @@ void RunningStats::Update(const float* batch, int64_t rows) {
   if (rows <= 0) return;
   const size_t size = mean_.size();
   const double n_b = static_cast<double>(rows);
-  const double n = count_ + n_b;
+  std::vector<double> mean_b(size), m2_b(size);
   for (size_t j = 0; j < size; ++j) {
     // Two passes over the batch: its mean, then its spread about that mean, which avoids the
     // cancellation of sum(x^2) - n * mean^2 when the mean is large against the spread.
     double sum = 0.0;
     for (int64_t i = 0; i < rows; ++i)
       sum += static_cast<double>(batch[static_cast<size_t>(i) * size + j]);
-    const double mean_b = sum / n_b;
-    double m2_b = 0.0;
+    mean_b[j] = sum / n_b;
+    double m2 = 0.0;
     for (int64_t i = 0; i < rows; ++i) {
-      const double d = static_cast<double>(batch[static_cast<size_t>(i) * size + j]) - mean_b;
-      m2_b += d * d;
+      const double d = static_cast<double>(batch[static_cast<size_t>(i) * size + j]) - mean_b[j];
+      m2 += d * d;
     }
+    m2_b[j] = m2;
+  }
+  Merge(n_b, mean_b, m2_b);
+}
+
+void RunningStats::Merge(double count, const std::vector<double>& mean,
+                         const std::vector<double>& m2) {
+  if (count <= 0) return;
+  if (mean.size() != mean_.size() || m2.size() != mean_.size()) {
+    throw std::invalid_argument("RunningStats::Merge: sizes differ");
+  }
+  const double n = count_ + count;
+  for (size_t j = 0; j < mean_.size(); ++j) {
     // Chan, Golub and LeVeque (1979): the combined sum of squared deviations is the two parts'
     // plus the spread between their means.
-    const double delta = mean_b - mean_[j];
-    const double m2 = var_[j] * count_ + m2_b + delta * delta * count_ * n_b / n;
-    mean_[j] += delta * n_b / n;
-    var_[j] = m2 / n;
+    const double delta = mean[j] - mean_[j];
+    const double combined = var_[j] * count_ + m2[j] + delta * delta * count_ * count / n;
+    mean_[j] += delta * count / n;
+    var_[j] = combined / n;
   }
   count_ = n;
 }

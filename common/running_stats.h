@@ -28,6 +28,10 @@ class RunningStats {
   // Merges a batch of `rows` observations ([rows, size], row-major) with Chan et al.'s parallel
   // update, so the result equals the statistics of everything seen as one batch.
   void Update(const float* batch, int64_t rows);
+  // Merges a batch given by its moments: `count` rows, per-column `mean` and `m2` (the sum of
+  // squared deviations from that mean). Learner replicas merge their batches' moments first, so
+  // every replica ends with the statistics of the union.
+  void Merge(double count, const std::vector<double>& mean, const std::vector<double>& m2);
 
   // (x - mean) / sqrt(var + epsilon), clipped to [-clip, clip]; `rows` rows of size().
   void Normalize(const float* in, int64_t rows, float* out, double clip = 10.0,

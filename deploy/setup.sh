@@ -7,7 +7,7 @@ packages=(
   # toolchain
   build-essential cmake ninja-build pkg-config git clang-format
   # simulation and learning
-  libmujoco-dev libmujoco-samples libtorch-dev
+  libmujoco-dev libmujoco-samples libtorch-dev libgloo-dev
   # MuJoCo's CMake package looks for OpenGL even when nothing is rendered
   libgl-dev libopengl-dev
   # libtorch links libblas.so.3; OpenBLAS registers itself as that alternative and is 5-10x

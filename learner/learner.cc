@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <sstream>
 
 #include "common/config_section.h"
 #include "learner/ppo.h"
@@ -24,10 +25,15 @@ void EpisodeStatsSum::Add(const v1::EpisodeSummary& e) {
   root += e.root();
 }
 
-Learner::Learner(const TrainerConfig& config, int observation_size, int action_size)
+Learner::Learner(const TrainerConfig& config, int observation_size, int action_size,
+                 ReplicaGroup* group)
     : config_(config),
       observation_size_(observation_size),
       action_size_(action_size),
+      group_(group),
+      local_buffer_size_((config.buffer_size + (group ? group->size() : 1) - 1) /
+                         (group ? group->size() : 1)),
+      local_batch_size_(std::max<int64_t>(1, config.batch_size / (group ? group->size() : 1))),
       policy_(observation_size, action_size, config.network),
       critic_(observation_size, config.network),
       stats_(observation_size),
@@ -75,6 +81,43 @@ torch::Tensor Learner::ValueFromCritic(const torch::Tensor& output) const {
 torch::Tensor Learner::ValueToCritic(const torch::Tensor& value) const {
   if (!config_.normalize_value) return value;
   return (value - return_stats_.mean()[0]) / std::sqrt(return_stats_.var()[0] + 1e-8);
+}
+
+bool Learner::AgreeToUpdate(bool stopping) {
+  if (group_ == nullptr) return !stopping;
+  torch::Tensor stop = torch::tensor({int64_t{stopping ? 1 : 0}}, torch::kInt64);
+  group_->Sum(stop);
+  return stop.item<int64_t>() == 0;
+}
+
+void Learner::MergeStatistics(RunningStats& stats, const torch::Tensor& rows) {
+  torch::Tensor x = rows.contiguous();
+  if (group_ == nullptr) {
+    stats.Update(x.data_ptr<float>(), x.size(0));
+    return;
+  }
+  // The union's mean first, then each replica's squared deviations from it: the same two passes
+  // as RunningStats::Update, over every replica's rows.
+  torch::Tensor d = x.to(torch::kFloat64);
+  torch::Tensor sums =
+      torch::cat({torch::tensor({static_cast<double>(x.size(0))}, torch::kFloat64), d.sum(0)});
+  group_->Sum(sums);
+  const double count = sums[0].item<double>();
+  if (count <= 0) return;
+  torch::Tensor mean = sums.slice(0, 1) / count;
+  torch::Tensor m2 = (d - mean).pow(2).sum(0).contiguous();
+  group_->Sum(m2);
+  mean = mean.contiguous();
+  const double* mp = mean.data_ptr<double>();
+  const double* sp = m2.data_ptr<double>();
+  stats.Merge(count, std::vector<double>(mp, mp + mean.numel()),
+              std::vector<double>(sp, sp + m2.numel()));
+}
+
+void Learner::SyncFromRankZero() {
+  if (group_ == nullptr) return;
+  std::string state = group_->Broadcast(group_->rank() == 0 ? SaveToBytes("") : std::string());
+  if (group_->rank() != 0) LoadFromBytes(state, "the state of learner replica 0");
 }
 
 UpdateStats Learner::Update() {
@@ -141,10 +184,7 @@ UpdateStats Learner::Update() {
   torch::Tensor b_values = values.reshape({B});
   // The critic learns (and its loss is clipped) in normalised units: the statistics take in this
   // buffer's returns first, so the targets are scaled by what they are now.
-  if (config_.normalize_value) {
-    torch::Tensor r = b_returns.contiguous();
-    return_stats_.Update(r.data_ptr<float>(), B);
-  }
+  if (config_.normalize_value) MergeStatistics(return_stats_, b_returns.reshape({B, 1}));
   torch::Tensor b_value_targets = ValueToCritic(b_returns);
   torch::Tensor b_old_values = ValueToCritic(b_values);
 
@@ -172,6 +212,8 @@ UpdateStats Learner::Update() {
   loss_config.clip_vloss = config_.clip_value_loss;
   loss_config.vf_coef = config_.value_coef;
   loss_config.ent_coef = config_.beta;
+  // Replicas normalise each minibatch's advantages by the whole group's minibatch (below).
+  loss_config.norm_adv = group_ == nullptr;
 
   // The policy this update starts from, to measure how far each step has moved it.
   torch::Tensor old_means, old_log_std;
@@ -183,21 +225,56 @@ UpdateStats Learner::Update() {
 
   std::vector<torch::Tensor> params = optimizer_->param_groups()[0].params();
   int64_t minibatches = 0;
-  const int64_t mb = std::min(config_.batch_size, B);
+  const int64_t mb = std::min(local_batch_size_, B);
+  // Every replica takes the same number of gradient steps.
+  torch::Tensor steps = torch::tensor({B / mb}, torch::kInt64);
+  if (group_ != nullptr) group_->Min(steps);
+  const int64_t steps_per_epoch = steps.item<int64_t>();
+  const double replicas = group_ != nullptr ? group_->size() : 1;
   for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
     torch::Tensor order = torch::randperm(B, torch::kLong);
-    for (int64_t start_index = 0; start_index + mb <= B; start_index += mb) {
-      torch::Tensor idx = order.slice(0, start_index, start_index + mb);
+    for (int64_t step = 0; step < steps_per_epoch; ++step) {
+      torch::Tensor idx = order.slice(0, step * mb, (step + 1) * mb);
       auto current = policy_->Evaluate(b_obs.index_select(0, idx), b_actions.index_select(0, idx));
-      const double update_kl =
+      double update_kl =
           GaussianKl(old_means.index_select(0, idx), old_log_std, current.mean, policy_->log_std);
       torch::Tensor newvalue = critic_->forward(b_obs.index_select(0, idx));
-      PpoLoss loss =
-          ComputePpoLoss(loss_config, current.log_prob, current.entropy, newvalue,
-                         b_logprobs.index_select(0, idx), b_advantages.index_select(0, idx),
-                         b_value_targets.index_select(0, idx), b_old_values.index_select(0, idx));
+      torch::Tensor advantages = b_advantages.index_select(0, idx);
+      if (group_ != nullptr) {
+        // The group's minibatch is the union of the replicas' ones: normalise by its mean and
+        // (unbiased) standard deviation, as one learner would.
+        torch::Tensor a = advantages.to(torch::kFloat64);
+        torch::Tensor moments =
+            torch::stack({a.sum(), a.pow(2).sum(),
+                          torch::tensor(static_cast<double>(a.numel()), torch::kFloat64)});
+        group_->Sum(moments);
+        const double n = moments[2].item<double>();
+        const double mean = moments[0].item<double>() / n;
+        const double var =
+            n > 1 ? std::max(0.0, (moments[1].item<double>() - n * mean * mean) / (n - 1)) : 0.0;
+        if (n > 1) advantages = (advantages - mean) / (std::sqrt(var) + 1e-8);
+      }
+      PpoLoss loss = ComputePpoLoss(
+          loss_config, current.log_prob, current.entropy, newvalue, b_logprobs.index_select(0, idx),
+          advantages, b_value_targets.index_select(0, idx), b_old_values.index_select(0, idx));
       optimizer_->zero_grad();
       loss.loss.backward();
+      if (group_ != nullptr) {
+        // One all-reduce per step: every gradient and this step's KL, averaged over replicas.
+        std::vector<torch::Tensor> flat;
+        for (const auto& p : params) flat.push_back(p.grad().reshape({-1}));
+        flat.push_back(torch::tensor({static_cast<float>(update_kl)}, torch::kFloat32));
+        torch::Tensor all = torch::cat(flat);
+        group_->Sum(all);
+        all.div_(replicas);
+        int64_t offset = 0;
+        for (auto& p : params) {
+          const int64_t n = p.numel();
+          p.grad().copy_(all.slice(0, offset, offset + n).view_as(p));
+          offset += n;
+        }
+        update_kl = all[offset].item<double>();
+      }
       double norm = torch::nn::utils::clip_grad_norm_(params, config_.max_grad_norm);
       if (!std::isfinite(norm)) {
         // A non-finite gradient never reaches the weights.
@@ -228,15 +305,41 @@ UpdateStats Learner::Update() {
     stats.clip_fraction /= minibatches;
   }
   stats.explained_variance = ExplainedVariance(b_values, b_returns);
+  if (group_ != nullptr) {
+    // The group's means of what each replica measured on its share.
+    torch::Tensor reported =
+        torch::tensor({stats.policy_loss, stats.value_loss, stats.entropy, stats.approx_kl,
+                       stats.clip_fraction, stats.explained_variance},
+                      torch::kFloat64);
+    group_->Sum(reported);
+    reported.div_(replicas);
+    stats.policy_loss = reported[0].item<double>();
+    stats.value_loss = reported[1].item<double>();
+    stats.entropy = reported[2].item<double>();
+    stats.approx_kl = reported[3].item<double>();
+    stats.clip_fraction = reported[4].item<double>();
+    stats.explained_variance = reported[5].item<double>();
+  }
 
   // The statistics change only after the update, so the update normalised observations exactly
   // as the actors did when they chose the actions.
-  if (config_.normalize) {
-    torch::Tensor seen = obs.slice(1, 0, T).reshape({B, O}).contiguous();
-    stats_.Update(seen.data_ptr<float>(), B);
+  if (config_.normalize) MergeStatistics(stats_, obs.slice(1, 0, T).reshape({B, O}));
+  int64_t group_samples = B;
+  if (group_ != nullptr) {
+    EpisodeStatsSum& e = episodes_;
+    torch::Tensor sums = torch::tensor({static_cast<double>(B), static_cast<double>(e.episodes),
+                                        e.episode_return, e.normalized_return, e.length, e.falls,
+                                        e.rotation, e.velocity, e.end_effector, e.com, e.root},
+                                       torch::kFloat64);
+    group_->Sum(sums);
+    group_samples = static_cast<int64_t>(sums[0].item<double>());
+    e.episodes = static_cast<int64_t>(sums[1].item<double>());
+    double* fields[] = {&e.episode_return, &e.normalized_return, &e.length, &e.falls, &e.rotation,
+                        &e.velocity,       &e.end_effector,      &e.com,    &e.root};
+    for (int i = 0; i < 9; ++i) *fields[i] = sums[2 + i].item<double>();
   }
-  samples_ += B;
-  stats.samples = B;
+  samples_ += group_samples;
+  stats.samples = group_samples;
   ++version_;
   ++iterations_;
   buffer_.clear();
@@ -260,8 +363,8 @@ std::vector<double> DoubleVector(const torch::Tensor& t) {
 
 }  // namespace
 
-void Learner::Save(const std::string& path, const std::string& config_text) {
-  torch::serialize::OutputArchive archive;
+void Learner::SaveArchive(torch::serialize::OutputArchive& archive,
+                          const std::string& config_text) {
   torch::serialize::OutputArchive policy_archive, critic_archive, optimizer_archive;
   policy_->save(policy_archive);
   critic_->save(critic_archive);
@@ -281,15 +384,56 @@ void Learner::Save(const std::string& path, const std::string& config_text) {
   archive.write("return_stats", torch::tensor({return_stats_.mean()[0], return_stats_.var()[0],
                                                return_stats_.count()},
                                               torch::kFloat64));
+}
+
+void Learner::Save(const std::string& path, const std::string& config_text) {
+  torch::serialize::OutputArchive archive;
+  SaveArchive(archive, config_text);
   std::string tmp = path + ".tmp";
   archive.save_to(tmp);
   std::filesystem::rename(tmp, path);
 }
 
+std::string Learner::SaveToBytes(const std::string& config_text) {
+  torch::serialize::OutputArchive archive;
+  SaveArchive(archive, config_text);
+  std::ostringstream out;
+  archive.save_to(out);
+  return out.str();
+}
+
+namespace {
+
+ConfigError Unreadable(const std::string& source, const std::exception& e) {
+  return ConfigError(source + ": not a readable ragdoll checkpoint (" +
+                     std::string(e.what()).substr(0, 200) + ")");
+}
+
+}  // namespace
+
 std::string Learner::Load(const std::string& path) {
   torch::serialize::InputArchive archive;
   try {
     archive.load_from(path);
+  } catch (const std::exception& e) {
+    throw Unreadable(path, e);
+  }
+  return LoadArchive(archive, path);
+}
+
+std::string Learner::LoadFromBytes(const std::string& bytes, const std::string& source) {
+  torch::serialize::InputArchive archive;
+  try {
+    std::istringstream in(bytes);
+    archive.load_from(in);
+  } catch (const std::exception& e) {
+    throw Unreadable(source, e);
+  }
+  return LoadArchive(archive, source);
+}
+
+std::string Learner::LoadArchive(torch::serialize::InputArchive& archive, const std::string& path) {
+  try {
     torch::Tensor sizes;
     archive.read("sizes", sizes);
     if (sizes[0].item<int64_t>() != observation_size_ || sizes[1].item<int64_t>() != action_size_) {
@@ -333,8 +477,7 @@ std::string Learner::Load(const std::string& path) {
   } catch (const ConfigError&) {
     throw;
   } catch (const std::exception& e) {
-    throw ConfigError(path + ": not a readable ragdoll checkpoint (" +
-                      std::string(e.what()).substr(0, 200) + ")");
+    throw Unreadable(path, e);
   }
 }
 

@@ -12,6 +12,7 @@
 #include "common/policy.h"
 #include "common/running_stats.h"
 #include "common/wire.h"
+#include "learner/replica_group.h"
 #include "learner/trainer_config.h"
 
 namespace ragdoll::learner {
@@ -42,14 +43,25 @@ struct EpisodeStatsSum {
 
 class Learner {
  public:
-  Learner(const TrainerConfig& config, int observation_size, int action_size);
+  // With a `group` of replicas (which must outlive the learner), each replica buffers its share
+  // of buffer_size and batch_size, and every update merges statistics and gradients across the
+  // group, so all replicas take the same steps. Without one, the learner is alone.
+  Learner(const TrainerConfig& config, int observation_size, int action_size,
+          ReplicaGroup* group = nullptr);
 
   enum class Accept { kAccepted, kStale, kWrongLength };
   // Adds a segment that passed wire::CheckSegment for this learner's sizes.
   Accept Add(const v1::TrajectorySegment& segment);
-  bool Ready() const { return buffered_samples_ >= config_.buffer_size; }
-  // Runs PPO on the buffer, empties it, bumps the policy version.
+  bool Ready() const { return buffered_samples_ >= local_buffer_size_; }
+  // Replicas only: every replica calls this when Ready() or when it is asked to stop; true when
+  // any of them is stopping (then none updates). Alone: !stopping.
+  bool AgreeToUpdate(bool stopping);
+  // Runs PPO on the buffer, empties it, bumps the policy version. With replicas, every replica
+  // calls it together (after AgreeToUpdate), and the episode statistics become the group's.
   UpdateStats Update();
+  // Replicas only: every replica takes rank 0's whole training state (after rank 0 loaded a
+  // checkpoint or initial weights).
+  void SyncFromRankZero();
 
   v1::PolicySnapshot Snapshot();
   // Writes the whole training state atomically (temporary file, then rename).
@@ -57,6 +69,9 @@ class Learner {
   // Restores the state written by Save; throws ConfigError naming the file on any mismatch.
   // Returns the config text stored in the checkpoint.
   std::string Load(const std::string& path);
+  // The same state as bytes (what Save writes to a file).
+  std::string SaveToBytes(const std::string& config_text);
+  std::string LoadFromBytes(const std::string& bytes, const std::string& source);
   // Copies only the network weights and observation statistics of a checkpoint (--init-from).
   void LoadWeights(const std::string& path);
 
@@ -77,9 +92,17 @@ class Learner {
   torch::Tensor Normalize(const torch::Tensor& observations) const;
   torch::Tensor ValueFromCritic(const torch::Tensor& output) const;
   torch::Tensor ValueToCritic(const torch::Tensor& value) const;
+  // The running statistics take in `rows` rows ([rows, size] float32) of this replica and, with
+  // replicas, of every other one.
+  void MergeStatistics(RunningStats& stats, const torch::Tensor& rows);
+  void SaveArchive(torch::serialize::OutputArchive& archive, const std::string& config_text);
+  std::string LoadArchive(torch::serialize::InputArchive& archive, const std::string& source);
 
   TrainerConfig config_;
   int observation_size_, action_size_;
+  ReplicaGroup* group_;
+  int64_t local_buffer_size_;  // this replica's share of buffer_size
+  int64_t local_batch_size_;   // and of batch_size
   GaussianPolicy policy_;
   ValueNetwork critic_;
   std::unique_ptr<torch::optim::Adam> optimizer_;

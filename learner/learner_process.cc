@@ -1,16 +1,23 @@
 #include "learner/learner_process.h"
 
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <vector>
 
 #include "common/config_section.h"
 #include "common/metrics.h"
 #include "common/wire.h"
 #include "learner/learner.h"
+#include "learner/replica_group.h"
 
 namespace ragdoll::learner {
 namespace fs = std::filesystem;
@@ -69,8 +76,9 @@ struct LearnerMetrics {
                                    {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64})),
         skipped_steps(m.Counter("ragdoll_ppo_skipped_gradient_steps_total",
                                 "Gradient steps skipped for a non-finite gradient")),
-        samples(m.Counter("ragdoll_learner_samples_total",
-                          "Samples trained on by this learner process")),
+        samples(m.Counter(
+            "ragdoll_learner_samples_total",
+            "Samples trained on by this learner process (by its group: counted by replica 0)")),
         run_samples(m.Gauge("ragdoll_learner_run_samples",
                             "Samples trained on in the whole run (continues after a resume)")),
         samples_per_second(m.Gauge("ragdoll_learner_samples_per_second",
@@ -111,7 +119,100 @@ struct LearnerMetrics {
   std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
 };
 
+// Samples of a checkpoint file, from its name; -1 for "".
+int64_t CheckpointSamples(const std::string& path) {
+  if (path.empty()) return -1;
+  const std::string stem = fs::path(path).stem().string();  // checkpoint-000000507904
+  try {
+    return std::stoll(stem.substr(stem.find('-') + 1));
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
+// learner.address, else 127.0.0.1 with a broker on loopback, else the address this host's name
+// resolves to (a container's address on its compose network), else the name itself.
+std::string OwnAddress(const ReplicaSettings& settings, const Endpoints& endpoints) {
+  if (!settings.address.empty()) return settings.address;
+  if (endpoints.host == "127.0.0.1" || endpoints.host == "localhost") return "127.0.0.1";
+  char name[256] = {};
+  gethostname(name, sizeof(name) - 1);
+  addrinfo hints = {};
+  hints.ai_family = AF_INET;
+  addrinfo* found = nullptr;
+  std::string address = name;
+  if (getaddrinfo(name, nullptr, &hints, &found) == 0 && found != nullptr) {
+    char ip[INET_ADDRSTRLEN] = {};
+    const auto* in = reinterpret_cast<const sockaddr_in*>(found->ai_addr);
+    if (inet_ntop(AF_INET, &in->sin_addr, ip, sizeof(ip)) != nullptr &&
+        std::string(ip).rfind("127.", 0) != 0) {
+      address = ip;
+    }
+    freeaddrinfo(found);
+  }
+  return address;
+}
+
+// Asks the broker for a place in a group until it answers; nullopt when stopped first.
+std::optional<v1::ReplicaAssignment> JoinGroup(zmq::context_t& context,
+                                               const LearnerProcessConfig& config,
+                                               const Endpoints& endpoints,
+                                               int64_t checkpoint_samples,
+                                               const std::atomic<bool>& stop) {
+  zmq::socket_t control = MakeSocket(context, zmq::socket_type::dealer, endpoints);
+  control.set(zmq::sockopt::routing_id, config.replica_id);
+  control.connect(endpoints.Connect(endpoints.control_port));
+  v1::ReplicaHello hello;
+  hello.set_replica_id(config.replica_id);
+  hello.set_replicas(config.replica.replicas);
+  hello.set_address(OwnAddress(config.replica, endpoints));
+  hello.set_store_port(config.replica.store_port);
+  hello.set_checkpoint_samples(checkpoint_samples);
+  const std::string message =
+      wire::Pack(v1::KIND_REPLICA_HELLO, config.run_id, config.replica_id, hello);
+  const auto start = Clock::now();
+  auto last_hello = start - std::chrono::seconds(1), last_log = start;
+  std::fprintf(stderr, "learner: %s asks the broker for a group of %d replicas\n",
+               config.replica_id.c_str(), config.replica.replicas);
+  while (!stop.load()) {
+    if (Clock::now() - last_hello >= std::chrono::seconds(1)) {
+      Send(control, zmq::buffer(message), zmq::send_flags::dontwait);
+      last_hello = Clock::now();
+    }
+    if (Clock::now() - last_log > std::chrono::seconds(15)) {
+      last_log = Clock::now();
+      std::fprintf(stderr, "learner: %s still waiting for %d replicas to join (%.0f s)\n",
+                   config.replica_id.c_str(), config.replica.replicas,
+                   std::chrono::duration<double>(Clock::now() - start).count());
+    }
+    zmq::message_t reply;
+    if (!Receive(control, reply)) continue;
+    v1::Header header;
+    v1::ReplicaAssignment assignment;
+    wire::Verdict v = wire::ReadMessage(reply.data(), reply.size(), endpoints.max_message_bytes,
+                                        &header, &assignment);
+    if (v.ok() && header.kind() == v1::KIND_REPLICA_ASSIGNMENT &&
+        assignment.replicas() == config.replica.replicas && assignment.rank() >= 0 &&
+        assignment.rank() < assignment.replicas()) {
+      return assignment;
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace
+
+ReplicaSettings ReadReplicaSettings(const ConfigSection& section) {
+  ReplicaSettings s;
+  s.replicas = section.Get<int>("replicas", s.replicas);
+  if (s.replicas < 1 || s.replicas > 4096) section.Fail("replicas", "must be 1 to 4096");
+  s.store_port = section.GetPort("store_port", s.store_port);
+  s.address = section.Get<std::string>("address", s.address);
+  s.timeout = section.Get<double>("timeout", s.timeout);
+  if (!(s.timeout >= 1)) section.Fail("timeout", "must be at least 1 (seconds)");
+  section.Finish();
+  return s;
+}
 
 std::string FindCheckpoint(const std::string& run_or_checkpoint) {
   fs::path p(run_or_checkpoint);
@@ -123,12 +224,35 @@ std::string FindCheckpoint(const std::string& run_or_checkpoint) {
 int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop) {
   at::set_num_threads(trainer.threads);
-  torch::manual_seed(trainer.seed);
-  Learner learner(trainer, config.observation_size, config.action_size);
   const fs::path checkpoints = fs::path(config.run_dir) / "checkpoints";
   fs::create_directories(checkpoints);
+  zmq::context_t context(1);
 
-  if (config.resume) {
+  std::unique_ptr<ReplicaGroup> group;
+  if (config.replica.replicas > 1) {
+    const int64_t newest = config.resume ? CheckpointSamples(FindCheckpoint(config.run_dir)) : -1;
+    auto assignment = JoinGroup(context, config, endpoints, newest, stop);
+    if (!assignment) return 0;  // stopped before the group formed: nothing trained, nothing to save
+    ReplicaGroupConfig g;
+    g.rank = assignment->rank();
+    g.size = assignment->replicas();
+    g.store_host = assignment->store_host();
+    g.store_port = assignment->store_port();
+    g.address = OwnAddress(config.replica, endpoints);
+    g.timeout = std::chrono::milliseconds(static_cast<int64_t>(config.replica.timeout * 1000));
+    std::fprintf(stderr, "learner: %s is replica %d of %d (group %lld, store %s:%d)\n",
+                 config.replica_id.c_str(), g.rank, g.size,
+                 static_cast<long long>(assignment->group()), g.store_host.c_str(), g.store_port);
+    group = std::make_unique<ReplicaGroup>(g);
+  }
+  const int rank = group ? group->rank() : 0;
+  const bool leader = rank == 0;  // publishes snapshots, writes checkpoints and the CSV
+  torch::manual_seed(trainer.seed + static_cast<uint64_t>(rank));
+  Learner learner(trainer, config.observation_size, config.action_size, group.get());
+
+  if (!leader) {
+    // Rank 0's state arrives below.
+  } else if (config.resume) {
     std::string path = FindCheckpoint(config.run_dir);
     if (path.empty()) {
       std::fprintf(stderr, "learner: --resume: no checkpoint in %s; starting fresh\n",
@@ -145,6 +269,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     learner.LoadWeights(path);
     std::fprintf(stderr, "learner: initialised weights from %s\n", path.c_str());
   }
+  learner.SyncFromRankZero();
 
   MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
   LearnerMetrics metrics(endpoint);
@@ -164,15 +289,19 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     std::fprintf(stderr, "learner: %s checkpoint %s\n", why, path.c_str());
   };
 
-  zmq::context_t context(1);
+  // Every replica pulls its share of the segments (the broker's PUSH deals them round-robin);
+  // only rank 0 pushes snapshots.
   zmq::socket_t pull = MakeSocket(context, zmq::socket_type::pull, endpoints);
   zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
   pull.connect(endpoints.Connect(endpoints.learner_port));
-  push.connect(endpoints.Connect(endpoints.learner_snapshot_port));
+  if (leader) push.connect(endpoints.Connect(endpoints.learner_snapshot_port));
 
   std::string snapshot;
-  auto publish = [&]() { Send(push, zmq::buffer(snapshot), zmq::send_flags::dontwait); };
+  auto publish = [&]() {
+    if (leader) Send(push, zmq::buffer(snapshot), zmq::send_flags::dontwait);
+  };
   auto make_snapshot = [&]() {
+    if (!leader) return;
     snapshot = wire::Pack(v1::KIND_SNAPSHOT, config.run_id, "learner", learner.Snapshot(),
                           learner.version());
     publish();
@@ -180,8 +309,9 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   make_snapshot();
 
   const fs::path csv_path = fs::path(config.run_dir) / "metrics.csv";
-  bool new_csv = !fs::exists(csv_path);
-  std::ofstream csv(csv_path, std::ios::app);
+  bool new_csv = leader && !fs::exists(csv_path);
+  std::ofstream csv;
+  if (leader) csv.open(csv_path, std::ios::app);
   if (new_csv) {
     csv << "iteration,version,samples,elapsed_s,samples_per_s,episodes,mean_return,"
            "normalized_return,episode_length,fall_rate,rotation,velocity,end_effector,com,root,"
@@ -206,7 +336,13 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
 
   // Time spent blocked waiting for a segment: the learner's idle time, per iteration.
   double idle_seconds = 0;
-  while (!stop.load() && learner.samples() < trainer.max_steps) {
+  bool stopped = false;
+  while (learner.samples() < trainer.max_steps) {
+    if (stop.load()) {
+      learner.AgreeToUpdate(true);  // replicas stop together
+      stopped = true;
+      break;
+    }
     zmq::message_t message;
     const auto wait_start = Clock::now();
     const bool received = Receive(pull, message);
@@ -239,6 +375,10 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       }
     }
     if (learner.Ready()) {
+      if (!learner.AgreeToUpdate(false)) {  // another replica is stopping
+        stopped = true;
+        break;
+      }
       UpdateStats u = learner.Update();
       make_snapshot();
       last_publish = Clock::now();
@@ -250,20 +390,22 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       const double idle_fraction = idle_seconds / std::max(iteration_s, 1e-9);
       idle_seconds = 0;
       double eta = (trainer.max_steps - learner.samples()) / std::max(rate, 1e-9);
-      std::printf(
-          "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  "
-          "v%lld  kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
-          config.label.c_str(), static_cast<long long>(learner.iterations()),
-          static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
-          e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
-          static_cast<long long>(learner.version()), u.approx_kl, 100 * idle_fraction,
-          Duration(elapsed).c_str(), Duration(eta).c_str());
+      if (leader)
+        std::printf(
+            "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  "
+            "v%lld  kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
+            config.label.c_str(), static_cast<long long>(learner.iterations()),
+            static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
+            e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
+            static_cast<long long>(learner.version()), u.approx_kl, 100 * idle_fraction,
+            Duration(elapsed).c_str(), Duration(eta).c_str());
       std::fflush(stdout);
       metrics.episode_return.Set(e.Mean(e.episode_return));
       metrics.normalized_return.Set(e.Mean(e.normalized_return));
       metrics.episode_length.Set(e.Mean(e.length));
       metrics.fall_ratio.Set(e.Mean(e.falls));
-      metrics.episodes.Increment(static_cast<double>(e.episodes));
+      // Totals are the group's: replica 0 counts them, so sums over replicas stay right.
+      if (leader) metrics.episodes.Increment(static_cast<double>(e.episodes));
       const double terms[] = {e.rotation, e.velocity, e.end_effector, e.com, e.root};
       for (size_t i = 0; i < metrics.terms.size(); ++i) metrics.terms[i]->Set(e.Mean(terms[i]));
       metrics.policy_loss.Set(u.policy_loss);
@@ -276,25 +418,26 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       metrics.updates.Increment();
       metrics.update_seconds.Observe(u.seconds);
       metrics.skipped_steps.Increment(static_cast<double>(u.skipped_steps));
-      metrics.samples.Increment(static_cast<double>(u.samples));
+      if (leader) metrics.samples.Increment(static_cast<double>(u.samples));
       metrics.run_samples.Set(static_cast<double>(learner.samples()));
       metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
       metrics.version.Set(static_cast<double>(learner.version()));
-      csv << learner.iterations() << "," << learner.version() << "," << learner.samples() << ","
-          << elapsed << "," << u.samples / std::max(iteration_s, 1e-9) << "," << e.episodes << ","
-          << e.Mean(e.episode_return) << "," << e.Mean(e.normalized_return) << ","
-          << e.Mean(e.length) << "," << e.Mean(e.falls) << "," << e.Mean(e.rotation) << ","
-          << e.Mean(e.velocity) << "," << e.Mean(e.end_effector) << "," << e.Mean(e.com) << ","
-          << e.Mean(e.root) << "," << u.policy_loss << "," << u.value_loss << "," << u.entropy
-          << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
-          << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
-          << rejected_total << "," << idle_fraction << "," << u.update_kl << "\n";
-      csv.flush();
+      if (leader)
+        csv << learner.iterations() << "," << learner.version() << "," << learner.samples() << ","
+            << elapsed << "," << u.samples / std::max(iteration_s, 1e-9) << "," << e.episodes << ","
+            << e.Mean(e.episode_return) << "," << e.Mean(e.normalized_return) << ","
+            << e.Mean(e.length) << "," << e.Mean(e.falls) << "," << e.Mean(e.rotation) << ","
+            << e.Mean(e.velocity) << "," << e.Mean(e.end_effector) << "," << e.Mean(e.com) << ","
+            << e.Mean(e.root) << "," << u.policy_loss << "," << u.value_loss << "," << u.entropy
+            << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
+            << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
+            << rejected_total << "," << idle_fraction << "," << u.update_kl << "\n";
+      if (leader) csv.flush();
       learner.ResetEpisodeStats();
-      if (learner.samples() >= next_checkpoint) {
+      if (learner.samples() >= next_checkpoint && leader) {
         save("saved");
-        next_checkpoint += trainer.checkpoint_interval;
       }
+      if (learner.samples() >= next_checkpoint) next_checkpoint += trainer.checkpoint_interval;
     }
     if (std::chrono::duration<double>(Clock::now() - last_publish).count() >
         config.republish_seconds) {
@@ -302,7 +445,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       last_publish = Clock::now();
     }
   }
-  save(stop.load() ? "final (stopped)" : "final (max_steps reached)");
+  if (leader) save(stopped ? "final (stopped)" : "final (max_steps reached)");
   return 0;
 }
 

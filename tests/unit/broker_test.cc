@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <random>
 
 namespace ragdoll::broker {
@@ -137,6 +138,59 @@ TEST_F(BrokerTest, ServesTheNewestSnapshotToLateJoinersAndTracksActors) {
   EXPECT_EQ(h.policy_version(), 7);
   EXPECT_EQ(broker_->counters().snapshot_requests, 2);
   EXPECT_EQ(broker_->ActorsAlive(), 1);  // the late joiner, seen through its requests
+}
+
+// Learner replicas find each other through the broker: it waits for `replicas` of them, gives
+// rank 0 to the one with the newest checkpoint, and tells everyone where rank 0's store is.
+TEST_F(BrokerTest, RanksAGroupOfLearnerReplicasByTheirNewestCheckpoint) {
+  auto replica = [&](const std::string& id) {
+    zmq::socket_t s = MakeSocket(context_, zmq::socket_type::dealer, config_.endpoints, 0);
+    s.set(zmq::sockopt::routing_id, id);
+    s.connect(config_.endpoints.Connect(config_.endpoints.control_port));
+    return s;
+  };
+  auto hello = [](const std::string& id, int replicas, const std::string& address,
+                  int64_t checkpoint) {
+    v1::ReplicaHello h;
+    h.set_replica_id(id);
+    h.set_replicas(replicas);
+    h.set_address(address);
+    h.set_store_port(6000);
+    h.set_checkpoint_samples(checkpoint);
+    return wire::Pack(v1::KIND_REPLICA_HELLO, "run", id, h);
+  };
+  zmq::socket_t a = replica("a"), b = replica("b"), other = replica("other");
+  a.send(zmq::buffer(hello("a", 2, "host-a", 100)), zmq::send_flags::none);
+  // A replica expecting another group size does not complete this group.
+  other.send(zmq::buffer(hello("other", 3, "host-o", 900)), zmq::send_flags::none);
+  zmq::message_t m;
+  EXPECT_FALSE(Receive(a, &m));
+  b.send(zmq::buffer(hello("b", 2, "host-b", 500)), zmq::send_flags::none);
+  std::map<std::string, v1::ReplicaAssignment> placed;
+  for (auto* s : {&a, &b}) {
+    ASSERT_TRUE(Receive(*s, &m));
+    v1::Header header;
+    v1::ReplicaAssignment assignment;
+    ASSERT_TRUE(wire::ReadMessage(m.data(), m.size(), 1 << 20, &header, &assignment).ok());
+    EXPECT_EQ(header.kind(), v1::KIND_REPLICA_ASSIGNMENT);
+    placed[s == &a ? "a" : "b"] = assignment;
+  }
+  EXPECT_EQ(placed["b"].rank(), 0);  // the newer checkpoint
+  EXPECT_EQ(placed["a"].rank(), 1);
+  for (const auto& [id, assignment] : placed) {
+    EXPECT_EQ(assignment.replicas(), 2);
+    EXPECT_EQ(assignment.store_host(), "host-b");
+    EXPECT_EQ(assignment.store_port(), 6000);
+    EXPECT_EQ(assignment.group(), 1);
+  }
+  EXPECT_FALSE(Receive(other, &m));
+  EXPECT_EQ(Metric("ragdoll_broker_learner_groups_total"), 1);
+  EXPECT_EQ(Metric("ragdoll_broker_learner_replicas"), 2);
+  EXPECT_EQ(broker_->ActorsAlive(), 0);  // replicas are not actors
+
+  // An impossible request is counted and dropped.
+  other.send(zmq::buffer(hello("other", 0, "host-o", 0)), zmq::send_flags::none);
+  EXPECT_TRUE(PollUntil([&] { return broker_->counters().Rejected() == 1; }));
 }
 
 }  // namespace

@@ -8,9 +8,12 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <stdexcept>
+#include <thread>
 
 #include "common/config_section.h"
 #include "learner/ppo.h"
+#include "learner/replica_group.h"
 #include "learner/trainer_config.h"
 
 namespace ragdoll::learner {
@@ -316,6 +319,149 @@ TEST_F(LearnerTest, SnapshotCarriesPolicyAndStatistics) {
   for (int i = 0; i < kObs; ++i) {
     EXPECT_NEAR(stats.mean()[i], learner.stats().mean()[i], 1e-6);
   }
+}
+
+// Two replicas (threads of this process, over Gloo on loopback) that each see half of the
+// segments take exactly the same steps, and the same steps as one learner given the union: with
+// one minibatch per epoch the gradient is the union's mean whatever the order, and advantages,
+// observation and return statistics are the union's.
+ReplicaGroupConfig TestGroup(int rank, int port) {
+  ReplicaGroupConfig g;
+  g.rank = rank;
+  g.size = 2;
+  g.store_port = port;
+  g.timeout = std::chrono::seconds(20);
+  return g;
+}
+
+int FreePort() {
+  // Ports of this process's range, so concurrent test processes do not collide.
+  return 20000 + static_cast<int>(::getpid() % 20000);
+}
+
+TEST(LearnerReplicas, TwoReplicasStayIdenticalAndMatchOneLearnerOnTheUnion) {
+  TrainerConfig c = SmallConfig();
+  c.batch_size = c.buffer_size;  // one minibatch per epoch
+  c.num_epoch = 3;
+  c.normalize_value = true;
+  c.max_policy_lag = 100;
+  Learner single(c, kObs, kAct);
+  const std::string initial = single.SaveToBytes("");
+  const int port = FreePort();
+  constexpr int kUpdates = 3;
+
+  std::vector<std::vector<v1::TrajectorySegment>> data(kUpdates);
+  std::mt19937 rng(7);
+  for (auto& update : data) {
+    for (int i = 0; i < c.buffer_size / kT; ++i) update.push_back(RandomSegment(rng, 0));
+  }
+  std::vector<std::string> finals(2);
+  std::vector<double> normalized_returns(2);
+  std::vector<std::string> errors(2);
+  auto replica = [&](int rank) {
+    try {
+      ReplicaGroup group(TestGroup(rank, port));
+      Learner learner(c, kObs, kAct, &group);
+      if (rank == 0) learner.LoadFromBytes(initial, "initial");
+      learner.SyncFromRankZero();  // rank 1 starts from other random weights until here
+      for (const auto& update : data) {
+        for (size_t i = rank; i < update.size(); i += 2) learner.Add(update[i]);
+        EXPECT_TRUE(learner.Ready());
+        EXPECT_TRUE(learner.AgreeToUpdate(false));
+        learner.Update();
+        normalized_returns[rank] = learner.episodes().Mean(learner.episodes().normalized_return);
+        EXPECT_EQ(learner.episodes().episodes, static_cast<int64_t>(update.size()));
+        learner.ResetEpisodeStats();
+      }
+      finals[rank] = learner.SaveToBytes("");
+    } catch (const std::exception& e) {
+      errors[rank] = e.what();
+    }
+  };
+  std::thread zero(replica, 0), one(replica, 1);
+  zero.join();
+  one.join();
+  ASSERT_EQ(errors[0], "");
+  ASSERT_EQ(errors[1], "");
+  for (const auto& update : data) {
+    for (const auto& s : update) single.Add(s);
+    ASSERT_TRUE(single.Ready());
+    single.Update();
+  }
+
+  Learner a(c, kObs, kAct), b(c, kObs, kAct);
+  a.LoadFromBytes(finals[0], "replica 0");
+  b.LoadFromBytes(finals[1], "replica 1");
+  EXPECT_TRUE(SameParameters(*a.policy(), *b.policy()));
+  EXPECT_TRUE(SameParameters(*a.critic(), *b.critic()));
+  EXPECT_EQ(a.samples(), single.samples());
+  EXPECT_EQ(a.version(), kUpdates);
+  EXPECT_DOUBLE_EQ(a.stats().count(), single.stats().count());
+  for (int j = 0; j < kObs; ++j) {
+    EXPECT_NEAR(a.stats().mean()[j], single.stats().mean()[j], 1e-9);
+    EXPECT_NEAR(a.stats().var()[j], single.stats().var()[j], 1e-9);
+  }
+  EXPECT_NEAR(a.return_stats().mean()[0], single.return_stats().mean()[0], 1e-6);
+  EXPECT_NEAR(a.return_stats().var()[0], single.return_stats().var()[0], 1e-6);
+  // Float rounding differs (summation order, float64 advantage moments), and Adam can turn a
+  // rounding-sized gradient into a full step, so compare the whole weight vector: its distance
+  // from one learner's must be tiny against how far training moved it.
+  Learner start(c, kObs, kAct);
+  start.LoadFromBytes(initial, "initial");
+  auto flat = [](Learner& l) {
+    std::vector<torch::Tensor> all;
+    for (const auto& p : l.policy()->parameters()) all.push_back(p.detach().reshape({-1}));
+    for (const auto& p : l.critic()->parameters()) all.push_back(p.detach().reshape({-1}));
+    return torch::cat(all);
+  };
+  const double moved = (flat(single) - flat(start)).norm().item<double>();
+  const double differs = (flat(a) - flat(single)).norm().item<double>();
+  EXPECT_GT(moved, 1e-3);
+  EXPECT_LT(differs, 1e-3 * moved) << "moved " << moved << ", differs " << differs;
+  EXPECT_DOUBLE_EQ(normalized_returns[0], 0.5);
+  EXPECT_DOUBLE_EQ(normalized_returns[1], 0.5);
+}
+
+TEST(LearnerReplicas, OneStoppingReplicaStopsThemAll) {
+  const int port = FreePort() + 1;
+  std::vector<int> agreed(2, -1);
+  auto replica = [&](int rank) {
+    ReplicaGroup group(TestGroup(rank, port));
+    Learner learner(SmallConfig(), kObs, kAct, &group);
+    agreed[rank] = learner.AgreeToUpdate(rank == 1) ? 1 : 0;
+  };
+  std::thread zero(replica, 0), one(replica, 1);
+  zero.join();
+  one.join();
+  EXPECT_EQ(agreed[0], 0);
+  EXPECT_EQ(agreed[1], 0);
+}
+
+TEST(LearnerReplicas, AReplicaThatLeavesBreaksTheGroupAtOnce) {
+  const int port = FreePort() + 2;
+  std::string error;
+  double waited = -1;
+  auto zero = std::thread([&] {
+    ReplicaGroup group(TestGroup(0, port));
+    torch::Tensor t = torch::ones({4});
+    group.Sum(t);  // both joined
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      group.Sum(t);  // replica 1 is gone by now
+    } catch (const std::runtime_error& e) {
+      error = e.what();
+    }
+    waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  });
+  {
+    ReplicaGroup group(TestGroup(1, port));
+    torch::Tensor t = torch::ones({4});
+    group.Sum(t);
+    EXPECT_TRUE(torch::equal(t, torch::full({4}, 2.0f)));
+  }  // leaves: its connections close
+  zero.join();
+  EXPECT_THAT(error, ::testing::HasSubstr("a replica stopped or cannot be reached"));
+  EXPECT_LT(waited, 15.0);  // the closed connection, not the 20 s timeout
 }
 
 TEST(TrainerConfig, ReadsValueNormalisationAndFixedNoise) {

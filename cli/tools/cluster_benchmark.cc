@@ -1,0 +1,533 @@
+// How far one broker and N learner replicas carry a cluster, measured on loopback with the real
+// `ragdoll broker` and `ragdoll learner` processes fed by synthetic actors: threads that replay
+// trajectory segments recorded from the real environment (valid messages, no physics), stamped
+// with the newest policy version they have heard of.
+//   ragdoll-bench-cluster CONFIG [--seconds S] [--threads 1,2] [--replicas 1,2] [--subscribers 100]
+// It prints, and with --json writes:
+//   broker:    forwarding ceiling with a sink for a learner (segments/s, samples/s, MB/s, the
+//              broker's CPU share, and samples/s per broker core);
+//   learner:   per (threads, replicas), the samples/s trained when offered more than it takes,
+//              the stale-drop fraction then, and the stale fraction when offered 0.9 of that;
+//   snapshots: time for one snapshot to reach every one of --subscribers actors.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include "actor/rollout.h"
+#include "cli/experiment.h"
+#include "common/endpoints.h"
+#include "common/median.h"
+#include "common/wire.h"
+#include "learner/learner.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace ragdoll;
+using Clock = std::chrono::steady_clock;
+const char* kRun = "bench-cluster";
+
+double Since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// A child process running `ragdoll ROLE ...`; stopped with SIGTERM (then SIGKILL) on destruction.
+class Process {
+ public:
+  Process(const std::string& ragdoll, std::vector<std::string> args) {
+    args.insert(args.begin(), ragdoll);
+    pid_ = fork();
+    if (pid_ == 0) {
+      // Keep the bench's own output readable: the roles' logs go to a file.
+      FILE* log = std::fopen("/tmp/ragdoll-bench-cluster.log", "a");
+      if (log != nullptr) {
+        dup2(fileno(log), STDOUT_FILENO);
+        dup2(fileno(log), STDERR_FILENO);
+      }
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(ragdoll.c_str(), argv.data());
+      _exit(127);
+    }
+  }
+  ~Process() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGTERM);
+    for (int i = 0; i < 300; ++i) {
+      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+  Process(const Process&) = delete;
+  Process& operator=(const Process&) = delete;
+  // CPU seconds (user + system) used so far, from /proc.
+  double CpuSeconds() const {
+    std::ifstream in("/proc/" + std::to_string(pid_) + "/stat");
+    std::string line;
+    std::getline(in, line);
+    std::istringstream fields(line.substr(line.rfind(')') + 2));
+    std::string f;
+    double ticks = 0;
+    for (int i = 3; i <= 15 && fields >> f; ++i) {
+      if (i == 14 || i == 15) ticks += std::stod(f);
+    }
+    return ticks / static_cast<double>(sysconf(_SC_CLK_TCK));
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+// One series' value from a role's /metrics (summed over label sets); -1 when unreachable.
+double Scrape(int port, const std::string& name) {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address = {};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  inet_pton(AF_INET, "127.0.0.1", &address.sin_addr);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0) {
+    close(fd);
+    return -1;
+  }
+  const std::string request = "GET /metrics HTTP/1.0\r\nHost: localhost\r\n\r\n";
+  if (write(fd, request.data(), request.size()) < 0) {
+    close(fd);
+    return -1;
+  }
+  std::string body;
+  char buffer[65536];
+  for (ssize_t n; (n = read(fd, buffer, sizeof(buffer))) > 0;) body.append(buffer, n);
+  close(fd);
+  std::istringstream lines(body);
+  double sum = 0;
+  bool found = false;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind(name, 0) != 0) continue;
+    const char next = line.size() > name.size() ? line[name.size()] : '\0';
+    if (next != ' ' && next != '{') continue;
+    sum += std::stod(line.substr(line.rfind(' ') + 1));
+    found = true;
+  }
+  return found ? sum : -1;
+}
+
+struct Recording {
+  std::vector<v1::TrajectorySegment> segments;
+  int time_horizon = 0;
+  double bytes_per_sample = 0;
+  std::string snapshot;  // a real snapshot message of this network
+};
+
+// Segments from the real environment with a fresh policy: what actors send, byte for byte.
+Recording Record(const cli::Experiment& e, int count) {
+  Recording r;
+  r.time_horizon = e.trainer.time_horizon;
+  actor::RolloutWorker worker(e.environment, 8, r.time_horizon, 1, "bench-actor");
+  learner::Learner learner(e.trainer, worker.spec().observation_size, worker.spec().action_size);
+  const v1::PolicySnapshot snapshot = learner.Snapshot();
+  worker.SetPolicy(snapshot);
+  r.snapshot = wire::Pack(v1::KIND_SNAPSHOT, kRun, "learner", snapshot, 0);
+  while (static_cast<int>(r.segments.size()) < count) {
+    for (auto& s : worker.Collect()) r.segments.push_back(std::move(s));
+  }
+  r.segments.resize(static_cast<size_t>(count));
+  double bytes = 0;
+  for (const auto& s : r.segments) bytes += wire::Pack(v1::KIND_TRAJECTORY, kRun, "a", s).size();
+  r.bytes_per_sample = bytes / (static_cast<double>(count) * r.time_horizon);
+  return r;
+}
+
+// Synthetic actors: threads that push the recorded segments round and round, stamped with the
+// newest snapshot version the broker has published, at `rate` samples/s in total (0: as fast as
+// the broker takes them).
+class Replay {
+ public:
+  Replay(zmq::context_t& context, const Endpoints& endpoints, const Recording& recording,
+         int threads, double rate)
+      : recording_(recording) {
+    Stamp(0);
+    for (int i = 0; i < threads; ++i) {
+      workers_.emplace_back([this, &context, endpoints, threads, rate, i] {
+        zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
+        zmq::socket_t snapshots = MakeSocket(context, zmq::socket_type::sub, endpoints, 0);
+        snapshots.set(zmq::sockopt::conflate, 1);
+        snapshots.set(zmq::sockopt::subscribe, "");
+        push.connect(endpoints.Connect(endpoints.trajectory_port));
+        snapshots.connect(endpoints.Connect(endpoints.snapshot_port));
+        const double per_thread = rate / threads;
+        const double segment_samples = recording_.time_horizon;
+        const auto start = Clock::now();
+        int64_t sent = 0;
+        size_t next = static_cast<size_t>(i);
+        while (!stop_.load()) {
+          zmq::message_t m;
+          if (snapshots.recv(m, zmq::recv_flags::dontwait)) {
+            v1::Header h;
+            size_t offset = 0;
+            if (wire::ReadHeader(m.data(), m.size(), endpoints.max_message_bytes, &h, &offset)
+                    .ok() &&
+                h.kind() == v1::KIND_SNAPSHOT && h.policy_version() > version_.load()) {
+              Stamp(h.policy_version());
+            }
+          }
+          if (per_thread > 0 && sent * segment_samples > per_thread * Since(start)) {
+            std::this_thread::sleep_for(std::chrono::microseconds(200));
+            continue;
+          }
+          std::shared_ptr<const std::vector<std::string>> frames;
+          {
+            std::lock_guard<std::mutex> lock(mutex_);
+            frames = frames_;
+          }
+          const std::string& frame = (*frames)[next % frames->size()];
+          if (Send(push, zmq::buffer(frame), zmq::send_flags::dontwait)) {
+            ++sent;
+            next += static_cast<size_t>(threads);
+            offered_.fetch_add(1);
+          } else {
+            std::this_thread::sleep_for(std::chrono::microseconds(100));
+          }
+        }
+      });
+    }
+  }
+  ~Replay() {
+    stop_.store(true);
+    for (auto& w : workers_) w.join();
+  }
+  int64_t offered() const { return offered_.load(); }
+
+ private:
+  void Stamp(int64_t version) {
+    auto frames = std::make_shared<std::vector<std::string>>();
+    for (auto s : recording_.segments) {
+      s.set_policy_version(version);
+      frames->push_back(wire::Pack(v1::KIND_TRAJECTORY, kRun, "bench-actor", s, version));
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (version < version_.load()) return;
+    version_.store(version);
+    frames_ = frames;
+  }
+
+  const Recording& recording_;
+  std::mutex mutex_;
+  std::shared_ptr<const std::vector<std::string>> frames_;
+  std::atomic<int64_t> version_{-1};
+  std::atomic<bool> stop_{false};
+  std::atomic<int64_t> offered_{0};
+  std::vector<std::thread> workers_;
+};
+
+struct Ports {
+  int base;
+  Endpoints endpoints;
+  int learner_metrics(int index) const { return index == 0 ? base + 10 : base + 50 + index; }
+  int broker_metrics() const { return base + 11; }
+};
+
+Ports MakePorts(int base, const Endpoints& from) {
+  Ports p{base, from};
+  p.endpoints.host = "127.0.0.1";
+  p.endpoints.trajectory_port = base;
+  p.endpoints.control_port = base + 1;
+  p.endpoints.snapshot_port = base + 2;
+  p.endpoints.learner_port = base + 3;
+  p.endpoints.learner_snapshot_port = base + 4;
+  return p;
+}
+
+bool WaitFor(double seconds, const std::function<bool()>& done) {
+  const auto start = Clock::now();
+  while (Since(start) < seconds) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return done();
+}
+
+// The broker with a sink in the learner's place: its forwarding ceiling.
+nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config,
+                           const Recording& rec, const Ports& ports, double seconds, int senders) {
+  Process broker(ragdoll,
+                 {"broker", config, "--run-id", kRun, "--port-base", std::to_string(ports.base)});
+  zmq::context_t context(2);
+  std::atomic<bool> stop{false};
+  std::atomic<int64_t> received{0}, bytes{0};
+  std::thread sink([&] {
+    zmq::socket_t pull = MakeSocket(context, zmq::socket_type::pull, ports.endpoints);
+    pull.connect(ports.endpoints.Connect(ports.endpoints.learner_port));
+    while (!stop.load()) {
+      zmq::message_t m;
+      if (Receive(pull, m)) {
+        received.fetch_add(1);
+        bytes.fetch_add(static_cast<int64_t>(m.size()));
+      }
+    }
+  });
+  nlohmann::json out;
+  {
+    Replay replay(context, ports.endpoints, rec, senders, 0);
+    WaitFor(10, [&] { return received.load() > 100; });
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+    const int64_t r0 = received.load(), b0 = bytes.load();
+    const double cpu0 = broker.CpuSeconds();
+    const auto t0 = Clock::now();
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    const double wall = Since(t0);
+    const double segments = (received.load() - r0) / wall;
+    const double cpu = (broker.CpuSeconds() - cpu0) / wall;
+    out = {{"segments_per_s", segments},
+           {"samples_per_s", segments * rec.time_horizon},
+           {"MB_per_s", (bytes.load() - b0) / wall / 1e6},
+           {"broker_cpu_cores", cpu},
+           {"samples_per_s_per_broker_core", segments * rec.time_horizon / std::max(cpu, 1e-9)}};
+  }
+  stop.store(true);
+  sink.join();
+  return out;
+}
+
+// A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
+// (0: more than it can take). Trained samples/s and the stale-drop fraction.
+nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
+                            const Recording& rec, const Ports& ports, double seconds, int threads,
+                            int replicas, double rate, int senders) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("ragdoll-bench-cluster-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // The experiment with this thread count and nothing else changed (no checkpoints meanwhile).
+  YAML::Node node = YAML::LoadFile(config);
+  node["trainer"]["threads"] = threads;
+  node["trainer"]["max_steps"] = 1e12;
+  node["trainer"]["checkpoint_interval"] = 1e12;
+  const fs::path base = fs::path(config).parent_path();
+  for (const char* key : {"motion", "character"}) {
+    if (node["environment"][key]) {
+      node["environment"][key] =
+          fs::absolute(base / node["environment"][key].as<std::string>()).string();
+    }
+  }
+  const fs::path bench_config = dir / "bench.yaml";
+  {
+    YAML::Emitter emitter;
+    emitter << node;
+    std::ofstream(bench_config) << emitter.c_str() << "\n";
+  }
+  const std::string port_base = std::to_string(ports.base);
+  Process broker(ragdoll,
+                 {"broker", bench_config.string(), "--run-id", kRun, "--port-base", port_base});
+  std::vector<std::unique_ptr<Process>> learners;
+  for (int i = 0; i < replicas; ++i) {
+    learners.push_back(std::make_unique<Process>(
+        ragdoll,
+        std::vector<std::string>{"learner", bench_config.string(), "--run-id", kRun, "--port-base",
+                                 port_base, "--run-dir", (dir / "run").string(), "--replicas",
+                                 std::to_string(replicas), "--index", std::to_string(i)}));
+  }
+  auto trained = [&] { return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples"); };
+  auto stale = [&] {
+    double sum = 0;
+    for (int i = 0; i < replicas; ++i) {
+      sum += std::max(
+          0.0, Scrape(ports.learner_metrics(i), "ragdoll_learner_stale_segments_dropped_total"));
+    }
+    return sum;
+  };
+  nlohmann::json out = {{"threads", threads}, {"replicas", replicas}};
+  zmq::context_t context(2);
+  Replay replay(context, ports.endpoints, rec, senders, rate);
+  // Warm up: two updates done, so the group has formed and the first update's set-up is past.
+  const double buffer = node["trainer"]["hyperparameters"]["buffer_size"].as<double>(20000);
+  if (!WaitFor(120, [&] { return trained() >= 2 * buffer; })) {
+    out["error"] = "the learner group trained nothing within 120 s";
+    return out;
+  }
+  const double trained0 = trained(), stale0 = stale();
+  const double cpu0 = [&] {
+    double c = 0;
+    for (auto& l : learners) c += l->CpuSeconds();
+    return c;
+  }();
+  const auto t0 = Clock::now();
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  // Whole updates only: wait for the next one to land, then count.
+  const double before = trained();
+  WaitFor(60, [&] { return trained() > before; });
+  const double wall = Since(t0);
+  double cpu = -cpu0;
+  for (auto& l : learners) cpu += l->CpuSeconds();
+  const double trained_samples = trained() - trained0;
+  const double stale_samples = (stale() - stale0) * rec.time_horizon;
+  out["offered_samples_per_s"] = rate > 0 ? nlohmann::json(rate) : nlohmann::json("unlimited");
+  out["trained_samples_per_s"] = trained_samples / wall;
+  out["stale_fraction"] = stale_samples / std::max(1.0, stale_samples + trained_samples);
+  out["learner_cpu_cores"] = cpu / wall;
+  fs::remove_all(dir);
+  return out;
+}
+
+// One snapshot pushed into the broker as the learner does; the time until every one of
+// `subscribers` actor sockets (conflating, as actors subscribe) has it.
+nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& config,
+                              const Recording& rec, const Ports& ports, int subscribers,
+                              int repeats) {
+  Process broker(ragdoll,
+                 {"broker", config, "--run-id", kRun, "--port-base", std::to_string(ports.base)});
+  zmq::context_t context(2);
+  std::vector<zmq::socket_t> subs;
+  for (int i = 0; i < subscribers; ++i) {
+    subs.push_back(MakeSocket(context, zmq::socket_type::sub, ports.endpoints, 0));
+    subs.back().set(zmq::sockopt::conflate, 1);
+    subs.back().set(zmq::sockopt::subscribe, "");
+    subs.back().connect(ports.endpoints.Connect(ports.endpoints.snapshot_port));
+  }
+  zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, ports.endpoints);
+  push.connect(ports.endpoints.Connect(ports.endpoints.learner_snapshot_port));
+  v1::Header header;
+  v1::PolicySnapshot snapshot;
+  wire::ReadMessage(rec.snapshot.data(), rec.snapshot.size(), ports.endpoints.max_message_bytes,
+                    &header, &snapshot);
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // every subscription in place
+  std::vector<double> times;
+  int64_t version = 1;
+  for (int r = 0; r < repeats + 1; ++r, ++version) {
+    snapshot.set_version(version);
+    const std::string message = wire::Pack(v1::KIND_SNAPSHOT, kRun, "learner", snapshot, version);
+    std::vector<bool> have(subs.size(), false);
+    size_t count = 0;
+    const auto t0 = Clock::now();
+    Send(push, zmq::buffer(message));
+    while (count < subs.size() && Since(t0) < 10) {
+      for (size_t i = 0; i < subs.size(); ++i) {
+        zmq::message_t m;
+        if (have[i] || !subs[i].recv(m, zmq::recv_flags::dontwait)) continue;
+        v1::Header h;
+        size_t offset = 0;
+        if (wire::ReadHeader(m.data(), m.size(), ports.endpoints.max_message_bytes, &h, &offset)
+                .ok() &&
+            h.policy_version() == version) {
+          have[i] = true;
+          ++count;
+        }
+      }
+    }
+    if (r > 0) times.push_back(count == subs.size() ? Since(t0) : -1);  // the first warms up
+  }
+  return {{"subscribers", subscribers},
+          {"snapshot_bytes", rec.snapshot.size()},
+          {"median_s", Median(times)},
+          {"max_s", *std::max_element(times.begin(), times.end())}};
+}
+
+std::vector<int> Numbers(const std::string& list) {
+  std::vector<int> out;
+  std::stringstream in(list);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(std::stoi(item));
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Broker ceiling, learner absorption and snapshot fan-out on loopback.");
+  std::string config, json_out, threads_list = "1,2", replicas_list = "1,2";
+  std::string ragdoll = (fs::canonical("/proc/self/exe").parent_path() / "ragdoll").string();
+  double seconds = 20;
+  int subscribers = 100, senders = 2, port_base = 27000;
+  app.add_option("config", config, "experiment YAML")->required();
+  app.add_option("--ragdoll", ragdoll, "the ragdoll binary")->capture_default_str();
+  app.add_option("--seconds", seconds, "measuring window per figure")->capture_default_str();
+  app.add_option("--threads", threads_list, "learner thread counts (1 replica)")
+      ->capture_default_str();
+  app.add_option("--replicas", replicas_list, "learner replica counts (1 thread each)")
+      ->capture_default_str();
+  app.add_option("--subscribers", subscribers, "actors subscribed to snapshots")
+      ->capture_default_str();
+  app.add_option("--senders", senders, "synthetic actor threads")->capture_default_str();
+  app.add_option("--port-base", port_base, "ports PORT_BASE..PORT_BASE+60")->capture_default_str();
+  app.add_option("--json", json_out, "also write the figures here");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    cli::Experiment e = cli::ReadExperiment(config);
+    const Ports ports = MakePorts(port_base, e.broker.endpoints);
+    const int buffer_segments =
+        static_cast<int>(e.trainer.buffer_size / e.trainer.time_horizon) + 1;
+    std::fprintf(stderr, "recording %d segments from %s ...\n", buffer_segments, config.c_str());
+    const Recording rec = Record(e, buffer_segments);
+    nlohmann::json result = {{"config", config},
+                             {"cores", std::thread::hardware_concurrency()},
+                             {"bytes_per_sample", rec.bytes_per_sample},
+                             {"time_horizon", rec.time_horizon}};
+    std::printf("cluster benchmark (%s, %u cores, %.0f bytes per sample on the wire)\n",
+                config.c_str(), std::thread::hardware_concurrency(), rec.bytes_per_sample);
+
+    nlohmann::json broker = BenchBroker(ragdoll, config, rec, ports, seconds, senders);
+    result["broker"] = broker;
+    std::printf(
+        "broker ceiling (sink as learner)  %8.0f segments/s  %9.0f samples/s  %7.1f MB/s  "
+        "broker CPU %.2f cores  -> %.0f samples/s per broker core\n",
+        broker["segments_per_s"].get<double>(), broker["samples_per_s"].get<double>(),
+        broker["MB_per_s"].get<double>(), broker["broker_cpu_cores"].get<double>(),
+        broker["samples_per_s_per_broker_core"].get<double>());
+
+    std::vector<std::pair<int, int>> groups;
+    for (int t : Numbers(threads_list)) groups.emplace_back(t, 1);
+    for (int r : Numbers(replicas_list)) {
+      if (r > 1) groups.emplace_back(1, r);
+    }
+    result["learner"] = nlohmann::json::array();
+    for (const auto& [threads, replicas] : groups) {
+      nlohmann::json flood =
+          BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders);
+      if (flood.contains("error")) {
+        std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
+                    flood["error"].get<std::string>().c_str());
+        result["learner"].push_back(flood);
+        continue;
+      }
+      const double absorbed = flood["trained_samples_per_s"].get<double>();
+      nlohmann::json paced = BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas,
+                                          0.9 * absorbed, senders);
+      std::printf(
+          "learner %d thread(s) x %d replica(s)  offered more: %7.0f samples/s trained, stale "
+          "%.3f, CPU %.2f cores | offered %7.0f: %7.0f trained, stale %.3f\n",
+          threads, replicas, absorbed, flood["stale_fraction"].get<double>(),
+          flood["learner_cpu_cores"].get<double>(), 0.9 * absorbed,
+          paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0));
+      result["learner"].push_back({{"flooded", flood}, {"paced", paced}});
+    }
+
+    nlohmann::json snapshots = BenchSnapshots(ragdoll, config, rec, ports, subscribers, 10);
+    result["snapshots"] = snapshots;
+    std::printf("snapshot (%zu bytes) to %d subscribers: median %.4f s, max %.4f s\n",
+                rec.snapshot.size(), subscribers, snapshots["median_s"].get<double>(),
+                snapshots["max_s"].get<double>());
+    if (!json_out.empty()) std::ofstream(json_out) << result.dump(2) << "\n";
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "ragdoll-bench-cluster: %s\n", error.what());
+    return 1;
+  }
+  return 0;
+}
