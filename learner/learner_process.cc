@@ -422,7 +422,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       metrics.run_samples.Set(static_cast<double>(learner.samples()));
       metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
       metrics.version.Set(static_cast<double>(learner.version()));
-      if (leader)
+      if (leader) {
         csv << learner.iterations() << "," << learner.version() << "," << learner.samples() << ","
             << elapsed << "," << u.samples / std::max(iteration_s, 1e-9) << "," << e.episodes << ","
             << e.Mean(e.episode_return) << "," << e.Mean(e.normalized_return) << ","
@@ -432,12 +432,13 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
             << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
             << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
             << rejected_total << "," << idle_fraction << "," << u.update_kl << "\n";
-      if (leader) csv.flush();
-      learner.ResetEpisodeStats();
-      if (learner.samples() >= next_checkpoint && leader) {
-        save("saved");
+        csv.flush();
       }
-      if (learner.samples() >= next_checkpoint) next_checkpoint += trainer.checkpoint_interval;
+      learner.ResetEpisodeStats();
+      if (learner.samples() >= next_checkpoint) {
+        if (leader) save("saved");
+        next_checkpoint += trainer.checkpoint_interval;
+      }
     }
     if (std::chrono::duration<double>(Clock::now() - last_publish).count() >
         config.republish_seconds) {

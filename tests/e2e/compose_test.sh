@@ -135,7 +135,26 @@ first_line=$(podman logs "$learner" 2>&1 | grep "^\[" | awk -v v="v$next" '$0 ~ 
 echo "$first_line" | grep -q "samples" || fail "no progress line for v$next"
 log "first iteration after the restart: $first_line"
 
-# 5. Down, volumes removed by the trap.
+# 5. Two learner replicas: the service scaled with RAGDOLL_LEARNERS=2 forms a group at the
+#    broker, resumes from the volume's checkpoint and trains; a replica killed from outside breaks
+#    the group, `restart: on-failure` brings both back and the new group resumes again.
+learners_up_s=$SECONDS
+RAGDOLL_LEARNERS=2 "${compose[@]}" up -d learner > "$work/up2.log" 2>&1 || { cat "$work/up2.log"; fail "compose up with 2 learners"; }
+mapfile -t learners < <(containers learner)
+[ "${#learners[@]}" = 2 ] || fail "expected 2 learner replicas, found: ${learners[*]}"
+groups() { podman logs "$broker" 2>&1 | grep -c "learner group [0-9]* of 2 replicas"; }
+wait_for 120 "a group of 2 learner replicas at the broker" bash -c "[ \$(podman logs '$broker' 2>&1 | grep -c 'learner group [0-9]* of 2 replicas') -ge 1 ]"
+group_version=$(podman exec "$broker" curl -sf http://127.0.0.1:9301/metrics | awk '/^ragdoll_broker_snapshot_version/ { print int($2) }')
+wait_for 180 "the group to train 3 versions" broker_version_at_least $((group_version + 3))
+log "2 learner replicas: group formed and trained v$group_version -> v$((group_version + 3)) ($((SECONDS - learners_up_s)) s after up)"
+before_groups=$(groups)
+kill -9 "$(podman inspect --format '{{.State.Pid}}' "${learners[1]}")"
+wait_for 180 "the group to re-form after a replica was killed" bash -c "[ \$(podman logs '$broker' 2>&1 | grep -c 'learner group [0-9]* of 2 replicas') -gt $before_groups ]"
+group_version=$(podman exec "$broker" curl -sf http://127.0.0.1:9301/metrics | awk '/^ragdoll_broker_snapshot_version/ { print int($2) }')
+wait_for 180 "the re-formed group to train" broker_version_at_least $((group_version + 2))
+log "a killed replica: the group re-formed and trained on to v$((group_version + 2))"
+
+# 6. Down, volumes removed by the trap.
 log "figures: images ${build_s}s, ragdoll image $((image_size / 1000000)) MB; healthy ${healthy_s}s;" \
   "learner restart -> snapshot at broker ${first_ms} ms, -> next version ${next_ms} ms"
 echo "1 passed, 0 failed"

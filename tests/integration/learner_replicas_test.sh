@@ -62,4 +62,16 @@ awk -F, 'NR > 1 { r[n++] = $8 } END {
   printf "normalised return: first 3 iterations %.3f, last 3 %.3f\n", first, last;
   exit !(last > first + 0.04) }' "$work/$run/metrics.csv" || fail "the group did not learn"
 "$ragdoll" eval "$work/$run" --episodes 2 > /dev/null 2>&1 || fail "the final checkpoint does not evaluate"
+
+# The group's checkpoint resumes with another replica count: one learner alone.
+final=$(grep "^\[" "$work/train.log" | tail -n 1 | sed 's/.* v\([0-9]*\) .*/\1/')
+"$ragdoll" train "$config" --replicas 1 --actors 1 --port-base "$port" --runs-dir "$work" \
+  --run-id "$run" --resume > "$work/alone.log" 2>&1 &
+train=$!
+wait_for 60 "the single learner's first iteration" grep -q "^\[" "$work/alone.log"
+kill -INT "$train"; wait "$train"; train=
+grep -q "resumed from .* at policy v$final," "$work/alone.log" || fail "the single learner did not resume at v$final"
+first=$(grep -m1 "^\[" "$work/alone.log" | sed 's/.* v\([0-9]*\) .*/\1/')
+[ "$first" -eq $((final + 1)) ] || fail "one learner continued at v$first after the group's v$final"
+echo "a group of 2 stopped at v$final; one learner resumed and trained v$first"
 echo "PASS"
