@@ -3,7 +3,9 @@
 # here with debootstrap, since no registry is reachable), brings deploy/docker-compose.yml up with
 # Podman and two actors, waits until the learner has published several policy versions and
 # Prometheus holds the reward series, restarts the learner container and checks that it resumed
-# from the checkpoint volume, then tears everything down. Prints the figures it measured.
+# from the checkpoint volume, scales the learner to two replicas (a group at the broker), kills
+# one and sees the group re-form and train on, then tears everything down. Prints the figures it
+# measured.
 #   tests/e2e/compose_test.sh            (from anywhere; needs root or rootless Podman)
 # Grafana is not started: its image cannot be built from Debian packages here.
 set -euo pipefail
@@ -139,6 +141,8 @@ log "first iteration after the restart: $first_line"
 #    broker, resumes from the volume's checkpoint and trains; a replica killed from outside breaks
 #    the group, `restart: on-failure` brings both back and the new group resumes again.
 learners_up_s=$SECONDS
+# The single learner's container goes first: compose would keep it, with its old group size.
+podman stop -t 60 "$learner" > /dev/null && podman rm "$learner" > /dev/null
 RAGDOLL_LEARNERS=2 "${compose[@]}" up -d learner > "$work/up2.log" 2>&1 || { cat "$work/up2.log"; fail "compose up with 2 learners"; }
 mapfile -t learners < <(containers learner)
 [ "${#learners[@]}" = 2 ] || fail "expected 2 learner replicas, found: ${learners[*]}"
