@@ -12,6 +12,7 @@
 //   snapshots: time for one snapshot to reach every one of --subscribers actors.
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -52,10 +53,17 @@ double Since(Clock::time_point t) {
 // A child process running `ragdoll ROLE ...`; stopped with SIGTERM (then SIGKILL) on destruction.
 class Process {
  public:
-  Process(const std::string& ragdoll, std::vector<std::string> args) {
+  // `core` >= 0 pins the process to that core.
+  Process(const std::string& ragdoll, std::vector<std::string> args, int core = -1) {
     args.insert(args.begin(), ragdoll);
     pid_ = fork();
     if (pid_ == 0) {
+      if (core >= 0) {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        CPU_SET(core, &set);
+        sched_setaffinity(0, sizeof(set), &set);
+      }
       // Keep the bench's own output readable: the roles' logs go to a file.
       FILE* log = std::fopen("/tmp/ragdoll-bench-cluster.log", "a");
       if (log != nullptr) {
@@ -313,7 +321,7 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 // (0: more than it can take). Trained samples/s and the stale-drop fraction.
 nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
-                            int replicas, double rate, int senders) {
+                            int replicas, double rate, int senders, bool pin) {
   const fs::path dir =
       fs::temp_directory_path() / ("ragdoll-bench-cluster-" + std::to_string(getpid()));
   fs::remove_all(dir);
@@ -345,7 +353,8 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
         ragdoll,
         std::vector<std::string>{"learner", bench_config.string(), "--run-id", kRun, "--port-base",
                                  port_base, "--run-dir", (dir / "run").string(), "--replicas",
-                                 std::to_string(replicas), "--index", std::to_string(i)}));
+                                 std::to_string(replicas), "--index", std::to_string(i)},
+        pin ? i % static_cast<int>(std::thread::hardware_concurrency()) : -1));
   }
   auto trained = [&] { return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples"); };
   auto stale = [&] {
@@ -356,7 +365,7 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
     }
     return sum;
   };
-  nlohmann::json out = {{"threads", threads}, {"replicas", replicas}};
+  nlohmann::json out = {{"threads", threads}, {"replicas", replicas}, {"pinned", pin}};
   zmq::context_t context(2);
   Replay replay(context, ports.endpoints, rec, senders, rate);
   // Warm up: two updates done, so the group has formed and the first update's set-up is past.
@@ -457,6 +466,7 @@ int main(int argc, char** argv) {
   std::string ragdoll = (fs::canonical("/proc/self/exe").parent_path() / "ragdoll").string();
   double seconds = 20;
   int subscribers = 100, senders = 2, port_base = 27000;
+  bool pin = false;
   app.add_option("config", config, "experiment YAML")->required();
   app.add_option("--ragdoll", ragdoll, "the ragdoll binary")->capture_default_str();
   app.add_option("--seconds", seconds, "measuring window per figure")->capture_default_str();
@@ -469,6 +479,9 @@ int main(int argc, char** argv) {
   app.add_option("--senders", senders, "synthetic actor threads")->capture_default_str();
   app.add_option("--port-base", port_base, "ports PORT_BASE..PORT_BASE+60")->capture_default_str();
   app.add_option("--json", json_out, "also write the figures here");
+  app.add_flag("--pin", pin,
+               "pin learner replica i to core i (the broker and synthetic actors float), so "
+               "that each replica has a core of its own");
   CLI11_PARSE(app, argc, argv);
   try {
     cli::Experiment e = cli::ReadExperiment(config);
@@ -502,7 +515,7 @@ int main(int argc, char** argv) {
     result["learner"] = nlohmann::json::array();
     for (const auto& [threads, replicas] : groups) {
       nlohmann::json flood =
-          BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders);
+          BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders, pin);
       if (flood.contains("error")) {
         std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
                     flood["error"].get<std::string>().c_str());
@@ -515,7 +528,7 @@ int main(int argc, char** argv) {
       nlohmann::json paced;
       for (double fraction : {0.9, 0.75, 0.6, 0.45, 0.3}) {
         paced = BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas,
-                             fraction * flooded, senders);
+                             fraction * flooded, senders, pin);
         paced["fraction_of_flooded"] = fraction;
         if (paced.value("stale_fraction", 1.0) < 0.01) break;
       }
