@@ -31,9 +31,8 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
       observation_size_(observation_size),
       action_size_(action_size),
       group_(group),
-      local_buffer_size_((config.buffer_size + (group ? group->size() : 1) - 1) /
-                         (group ? group->size() : 1)),
-      local_batch_size_(std::max<int64_t>(1, config.batch_size / (group ? group->size() : 1))),
+      local_buffer_size_((config.buffer_size + replicas() - 1) / replicas()),
+      local_batch_size_(std::max<int64_t>(1, config.batch_size / replicas())),
       policy_(observation_size, action_size, config.network),
       critic_(observation_size, config.network),
       stats_(observation_size),
@@ -230,7 +229,6 @@ UpdateStats Learner::Update() {
   torch::Tensor steps = torch::tensor({B / mb}, torch::kInt64);
   if (group_ != nullptr) group_->Min(steps);
   const int64_t steps_per_epoch = steps.item<int64_t>();
-  const double replicas = group_ != nullptr ? group_->size() : 1;
   for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
     torch::Tensor order = torch::randperm(B, torch::kLong);
     for (int64_t step = 0; step < steps_per_epoch; ++step) {
@@ -266,7 +264,7 @@ UpdateStats Learner::Update() {
         flat.push_back(torch::tensor({static_cast<float>(update_kl)}, torch::kFloat32));
         torch::Tensor all = torch::cat(flat);
         group_->Sum(all);
-        all.div_(replicas);
+        all.div_(replicas());
         int64_t offset = 0;
         for (auto& p : params) {
           const int64_t n = p.numel();
@@ -312,7 +310,7 @@ UpdateStats Learner::Update() {
                        stats.clip_fraction, stats.explained_variance},
                       torch::kFloat64);
     group_->Sum(reported);
-    reported.div_(replicas);
+    reported.div_(replicas());
     stats.policy_loss = reported[0].item<double>();
     stats.value_loss = reported[1].item<double>();
     stats.entropy = reported[2].item<double>();

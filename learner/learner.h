@@ -89,6 +89,7 @@ class Learner {
   torch::optim::Adam& optimizer() { return *optimizer_; }
 
  private:
+  int replicas() const { return group_ != nullptr ? group_->size() : 1; }
   torch::Tensor Normalize(const torch::Tensor& observations) const;
   torch::Tensor ValueFromCritic(const torch::Tensor& output) const;
   torch::Tensor ValueToCritic(const torch::Tensor& value) const;

@@ -440,18 +440,15 @@ TEST(LearnerReplicas, OneStoppingReplicaStopsThemAll) {
 TEST(LearnerReplicas, AReplicaThatLeavesBreaksTheGroupAtOnce) {
   const int port = FreePort() + 2;
   std::string error;
-  double waited = -1;
   auto zero = std::thread([&] {
     ReplicaGroup group(TestGroup(0, port));
     torch::Tensor t = torch::ones({4});
     group.Sum(t);  // both joined
-    const auto start = std::chrono::steady_clock::now();
     try {
       group.Sum(t);  // replica 1 is gone by now
     } catch (const std::runtime_error& e) {
       error = e.what();
     }
-    waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   });
   {
     ReplicaGroup group(TestGroup(1, port));
@@ -461,7 +458,8 @@ TEST(LearnerReplicas, AReplicaThatLeavesBreaksTheGroupAtOnce) {
   }  // leaves: its connections close
   zero.join();
   EXPECT_THAT(error, ::testing::HasSubstr("a replica stopped or cannot be reached"));
-  EXPECT_LT(waited, 15.0);  // the closed connection, not the 20 s timeout
+  // Broken by the closed connection ("... by peer"), not by waiting out the timeout.
+  EXPECT_THAT(error, ::testing::HasSubstr("by peer"));
 }
 
 TEST(TrainerConfig, ReadsValueNormalisationAndFixedNoise) {
