@@ -58,26 +58,35 @@ Broker::~Broker() = default;
 
 Broker::Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id,
                MetricsEndpoint* metrics)
-    : config_(config),
-      run_id_(std::move(run_id)),
-      trajectories_in_(MakeSocket(context, zmq::socket_type::pull, config.endpoints, 0)),
-      trajectories_out_(MakeSocket(context, zmq::socket_type::push, config.endpoints, 0)),
-      control_(MakeSocket(context, zmq::socket_type::router, config.endpoints, 0)),
-      snapshots_in_(MakeSocket(context, zmq::socket_type::pull, config.endpoints, 0)),
-      snapshots_out_(MakeSocket(context, zmq::socket_type::pub, config.endpoints, 0)) {
+    : config_(config), run_id_(std::move(run_id)) {
+  if (!metrics) {  // kept, not served
+    own_metrics_ = std::make_unique<MetricsEndpoint>("broker", "", -1, run_id_);
+    metrics = own_metrics_.get();
+  }
   const Endpoints& e = config.endpoints;
+  if (e.curve.enabled()) {
+    authenticator_ = std::make_unique<Authenticator>(context, config.keys_dir, *metrics);
+  }
+  trajectories_in_ = MakeServerSocket(context, zmq::socket_type::pull, e, kActorDomain);
+  trajectories_out_ = MakeServerSocket(context, zmq::socket_type::push, e, kLearnerDomain);
+  control_ = MakeServerSocket(context, zmq::socket_type::router, e, kControlDomain);
+  snapshots_in_ = MakeServerSocket(context, zmq::socket_type::pull, e, kLearnerDomain);
+  snapshots_out_ = MakeServerSocket(context, zmq::socket_type::pub, e, kActorDomain);
   // A full snapshot must never be dropped for a slow subscriber's queue: conflation happens on
   // the subscriber side, so a small send queue per subscriber is enough.
   snapshots_out_.set(zmq::sockopt::sndhwm, 4);
+  if (authenticator_) {
+    authenticator_->Watch(trajectories_in_, "trajectories");
+    authenticator_->Watch(trajectories_out_, "learner");
+    authenticator_->Watch(control_, "control");
+    authenticator_->Watch(snapshots_in_, "learner-snapshots");
+    authenticator_->Watch(snapshots_out_, "snapshots");
+  }
   trajectories_in_.bind(e.Bind(e.trajectory_port));
   control_.bind(e.Bind(e.control_port));
   snapshots_out_.bind(e.Bind(e.snapshot_port));
   trajectories_out_.bind(e.Bind(e.learner_port));
   snapshots_in_.bind(e.Bind(e.learner_snapshot_port));
-  if (!metrics) {  // kept, not served
-    own_metrics_ = std::make_unique<MetricsEndpoint>("broker", "", -1, run_id_);
-    metrics = own_metrics_.get();
-  }
   metrics_ = std::make_unique<Metrics>(*metrics);
 }
 
@@ -151,6 +160,10 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
   if (!v.ok()) return Reject(v, "control");
   if (!CheckRun(header, "control")) return;
   if (header.kind() == v1::KIND_REPLICA_HELLO) {
+    if (authenticator_ && Authenticator::RoleOf(message) != kLearnerDomain) {
+      return Reject({wire::Rejection::kKind, "replica hello from a key that is not a learner's"},
+                    "control");
+    }
     v1::ReplicaHello hello;
     if (!hello.ParseFromArray(static_cast<const char*>(message.data()) + offset,
                               static_cast<int>(message.size() - offset))) {
@@ -251,9 +264,11 @@ void Broker::PollOnce(int timeout_ms) {
       {control_.handle(), 0, ZMQ_POLLIN, 0},
       {snapshots_in_.handle(), 0, ZMQ_POLLIN, 0},
       {trajectories_out_.handle(), 0, static_cast<short>(learner_ready ? 0 : ZMQ_POLLOUT), 0},
+      {authenticator_ ? authenticator_->socket().handle() : nullptr, 0,
+       static_cast<short>(authenticator_ ? ZMQ_POLLIN : 0), 0},
   };
   try {
-    zmq::poll(items, 4, std::chrono::milliseconds(timeout_ms));
+    zmq::poll(items, authenticator_ ? 5 : 4, std::chrono::milliseconds(timeout_ms));
   } catch (const zmq::error_t& e) {
     if (e.num() == EINTR) return;  // a signal: Run() checks its stop flag
     throw;
@@ -291,6 +306,7 @@ void Broker::PollOnce(int timeout_ms) {
       HandleSnapshot(message);
     }
   }
+  if (authenticator_) authenticator_->Poll();
   if (Clock::now() - last_gauges_ > std::chrono::milliseconds(500)) {
     last_gauges_ = Clock::now();
     metrics_->actors.Set(ActorsAlive());

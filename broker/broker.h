@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 
+#include "broker/authenticator.h"
 #include "common/endpoints.h"
 #include "common/metrics.h"
 #include "common/wire.h"
@@ -22,6 +23,9 @@ namespace ragdoll::broker {
 struct BrokerConfig {
   Endpoints endpoints;
   double actor_timeout = 10.0;  // seconds without a heartbeat before an actor counts as gone
+  // With CURVE keys in endpoints.curve: the folder whose actors/ and learners/ hold the public
+  // keys the broker accepts (re-read when they change).
+  std::string keys_dir;
 };
 
 struct BrokerCounters {
@@ -37,7 +41,8 @@ struct BrokerCounters {
 
 class Broker {
  public:
-  // Binds every socket; throws zmq::error_t when a port is taken. Keeps its Prometheus series
+  // Binds every socket (CURVE servers when endpoints.curve holds keys); throws zmq::error_t when
+  // a port is taken, std::runtime_error for a bad key. Keeps its Prometheus series
   // in `metrics`' registry (which must outlive the broker), or in a registry of its own.
   Broker(zmq::context_t& context, const BrokerConfig& config, std::string run_id,
          MetricsEndpoint* metrics = nullptr);
@@ -53,6 +58,8 @@ class Broker {
   int ActorsAlive() const;
   int64_t snapshot_version() const { return snapshot_version_; }
   int64_t replica_groups() const { return replica_groups_; }
+  // The gatekeeper under CURVE; null in plaintext.
+  const Authenticator* authenticator() const { return authenticator_.get(); }
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -68,12 +75,15 @@ class Broker {
 
   BrokerConfig config_;
   std::string run_id_;
-  zmq::socket_t trajectories_in_;   // PULL from actors
-  zmq::socket_t trajectories_out_;  // PUSH to the learner
-  zmq::socket_t control_;           // ROUTER for actors' hello, heartbeats, snapshot requests
-  zmq::socket_t snapshots_in_;      // PULL from the learner
-  zmq::socket_t snapshots_out_;     // PUB to actors
-  std::string snapshot_;            // the newest snapshot message, as received
+  std::unique_ptr<MetricsEndpoint> own_metrics_;  // when the caller gave none
+  zmq::socket_t trajectories_in_;                 // PULL from actors
+  zmq::socket_t trajectories_out_;                // PUSH to the learner
+  zmq::socket_t control_;        // ROUTER for actors' hello, heartbeats, snapshot requests
+  zmq::socket_t snapshots_in_;   // PULL from the learner
+  zmq::socket_t snapshots_out_;  // PUB to actors
+  // Bound before the sockets (the constructor sees to it), destroyed before them: it watches them.
+  std::unique_ptr<Authenticator> authenticator_;
+  std::string snapshot_;  // the newest snapshot message, as received
   int64_t snapshot_version_ = -1;
   std::map<std::string, Clock::time_point> last_seen_;
   struct PendingReplica {
@@ -84,7 +94,6 @@ class Broker {
   std::map<std::string, PendingReplica> pending_replicas_;  // by replica_id
   int64_t replica_groups_ = 0;
   std::array<Clock::time_point, 9> last_logged_{};
-  std::unique_ptr<MetricsEndpoint> own_metrics_;  // when the caller gave none
   struct Metrics;
   std::unique_ptr<Metrics> metrics_;
   Clock::time_point last_gauges_{};

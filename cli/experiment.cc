@@ -42,6 +42,9 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
   broker.Finish();
   e.learner = learner::ReadReplicaSettings(root.Section("learner"));
   e.metrics = ReadMetricsConfig(root.Section("metrics"));
+  ConfigSection security = root.Section("security");
+  e.keys_dir = security.GetPath("keys", "");
+  security.Finish();
   root.Finish();
 
   if (port_base > 0) {

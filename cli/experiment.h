@@ -24,6 +24,7 @@ struct Experiment {
   int actor_count = 0;       // actors.count; 0 = cores - 1, at least 1
   actor::ActorConfig actor;  // per-actor settings (id, run id and seed are set per process)
   MetricsConfig metrics;
+  std::string keys_dir;  // security.keys: the CURVE keys folder; empty: plaintext
 };
 
 // Reads `path`; throws ConfigError naming file, line, key and a hint for any problem.

@@ -74,6 +74,10 @@ void Stop(std::vector<Child>& children, const std::string& role, double seconds)
 
 int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
   Experiment e = ReadExperiment(options.config, options.port_base);
+  // Refuse before anything starts (the broker would, too).
+  const std::string keys = options.keys.empty() ? e.keys_dir : options.keys;
+  e.broker.endpoints.curve = LoadCurve(keys, "broker");
+  CheckTransportSecurity(e.broker.endpoints, options.insecure);
   const std::string run_id = options.run_id.empty() ? DefaultRunId(e.name) : options.run_id;
   const fs::path run_dir = fs::path(options.runs_dir) / run_id;
   fs::create_directories(run_dir);
@@ -94,8 +98,13 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
                "environments\n",
                run_id.c_str(), run_dir.c_str(), replicas, replicas == 1 ? "" : " replicas", actors,
                actors == 1 ? "" : "s", e.actor.environments);
+  std::fprintf(
+      stderr, "ragdoll train: broker on %s, %s\n",
+      e.broker.endpoints.Bind(e.broker.endpoints.trajectory_port).c_str(),
+      e.broker.endpoints.curve.enabled() ? ("CURVE keys from " + keys).c_str() : "plaintext");
 
   std::vector<std::string> common = {options.config, "--run-id", run_id};
+  if (!options.keys.empty()) common.insert(common.end(), {"--keys", options.keys});
   if (options.port_base > 0) {
     common.push_back("--port-base");
     common.push_back(std::to_string(options.port_base));
@@ -114,7 +123,8 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
     c.running = c.pid > 0;
     children.push_back(c);
   };
-  launch("broker", args("broker", {}));
+  launch("broker", args("broker", options.insecure ? std::vector<std::string>{"--insecure"}
+                                                   : std::vector<std::string>{}));
   // The learner, or a group of replicas that the broker ranks. A replica that fails breaks the
   // group: the others stop, and the whole group restarts from the last checkpoint.
   auto launch_learners = [&](bool resume) {

@@ -16,7 +16,9 @@ struct TrainOptions {
   std::string init_from;
   int actors = 0;  // 0: from the config (actors.count), else cores - 1
   int port_base = 0;
-  int replicas = 0;  // learner replicas; 0: from the config (learner.replicas)
+  int replicas = 0;       // learner replicas; 0: from the config (learner.replicas)
+  std::string keys;       // CURVE keys folder for every role; empty: the config's security.keys
+  bool insecure = false;  // let the broker listen beyond loopback without keys
 };
 
 int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop);

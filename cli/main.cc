@@ -5,6 +5,7 @@
 //   ragdoll render [RUN_OR_CHECKPOINT] --clip CLIP --out FILE.mp4|.gif|.png
 //   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
 //   ragdoll report RUN [RUN ...] --out FILE.html   curves, evaluation and a GIF of runs, one page
+//   ragdoll keygen [NAME]                CURVE keys for authenticated, encrypted transport
 #include <signal.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -21,6 +22,7 @@
 #include "actor/rollout.h"
 #include "broker/broker.h"
 #include "cli/experiment.h"
+#include "cli/keygen_command.h"
 #include "cli/launcher.h"
 #include "cli/motion_commands.h"
 #include "cli/render_command.h"
@@ -69,12 +71,16 @@ int main(int argc, char** argv) {
   train_cmd->add_option("--port-base", train.port_base, "use ports PORT_BASE..PORT_BASE+4");
   train_cmd->add_option("--replicas", train.replicas,
                         "learner replicas (default: the config's learner.replicas)");
+  train_cmd->add_option("--keys", train.keys,
+                        "CURVE keys folder (`ragdoll keygen`; default: security.keys)");
+  train_cmd->add_flag("--insecure", train.insecure,
+                      "let the broker listen beyond loopback without keys");
 
   // The distributed roles also read their options from RAGDOLL_* environment variables (for
   // containers); a command-line option wins over its variable.
-  std::string config, run_id, run_dir, init_from, broker_host;
+  std::string config, run_id, run_dir, init_from, broker_host, keys, key, bind;
   int port_base = 0, index = 0, metrics_port = -1, replicas = 0;
-  bool resume = false;
+  bool resume = false, insecure = false;
   auto* broker_cmd = app.add_subcommand("broker", "run the broker");
   auto* learner_cmd = app.add_subcommand("learner", "run the learner");
   auto* actor_cmd = app.add_subcommand("actor", "run one actor process");
@@ -88,7 +94,17 @@ int main(int argc, char** argv) {
     cmd->add_option("--metrics-port", metrics_port,
                     "Prometheus endpoint port (default: the config's metrics section)")
         ->envname("RAGDOLL_METRICS_PORT");
+    cmd->add_option("--keys", keys, "CURVE keys folder (default: the config's security.keys)")
+        ->envname("RAGDOLL_KEYS");
+    cmd->add_option("--key", key,
+                    "this process's secret certificate (default: KEYS/ROLE.key_secret)")
+        ->envname("RAGDOLL_KEY");
   }
+  broker_cmd
+      ->add_option("--bind", bind, "interface to listen on (default: the config's broker.bind)")
+      ->envname("RAGDOLL_BROKER_BIND");
+  broker_cmd->add_flag("--insecure", insecure, "listen beyond loopback without keys")
+      ->envname("RAGDOLL_INSECURE");
   for (auto* cmd : {learner_cmd, actor_cmd}) {
     cmd->add_option("--broker-host", broker_host, "where the broker is (default: broker.host)")
         ->envname("RAGDOLL_BROKER_HOST");
@@ -139,6 +155,7 @@ int main(int argc, char** argv) {
   std::function<int()> motion = cli::AddMotionCommands(app);
   std::function<int()> render = cli::AddRenderCommand(app, argc, argv);
   std::function<int()> report = cli::AddReportCommand(app);
+  std::function<int()> keygen = cli::AddKeygenCommand(app);
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {
@@ -146,6 +163,7 @@ int main(int argc, char** argv) {
     if (int code = motion(); code >= 0) return code;
     if (int code = render(); code >= 0) return code;
     if (int code = report(); code >= 0) return code;
+    if (int code = keygen(); code >= 0) return code;
 
     if (*eval_cmd) {
       cli::TrainedPolicy policy = cli::LoadTrainedPolicy(eval_target);
@@ -188,19 +206,30 @@ int main(int argc, char** argv) {
 
     cli::Experiment e = cli::ReadExperiment(config, port_base);
     if (!broker_host.empty()) e.broker.endpoints.host = broker_host;
+    if (!bind.empty()) e.broker.endpoints.bind = bind;
+    if (!keys.empty()) e.keys_dir = keys;
+    const char* role = *broker_cmd ? "broker" : *learner_cmd ? "learner" : "actor";
+    e.broker.endpoints.curve = LoadCurve(e.keys_dir, role, key);
+    e.broker.keys_dir = e.keys_dir;
     // The metrics port of this role: the option, else the config's (or none when disabled).
     auto metrics_port_of = [&](int configured) {
       if (metrics_port >= 0) return metrics_port;
       return e.metrics.enabled ? configured : -1;
     };
     if (*broker_cmd) {
+      CheckTransportSecurity(e.broker.endpoints, insecure);
       MetricsEndpoint metrics("broker", e.metrics.bind, metrics_port_of(e.metrics.broker_port),
                               run_id);
       zmq::context_t context(1);
       broker::Broker b(context, e.broker, run_id, &metrics);
-      std::fprintf(stderr, "broker: listening on %s (actors) and %s (learner)\n",
+      std::fprintf(stderr, "broker: listening on %s (actors) and %s (learner), %s\n",
                    e.broker.endpoints.Bind(e.broker.endpoints.trajectory_port).c_str(),
-                   e.broker.endpoints.Bind(e.broker.endpoints.learner_port).c_str());
+                   e.broker.endpoints.Bind(e.broker.endpoints.learner_port).c_str(),
+                   e.broker.endpoints.curve.enabled() ? "CURVE"
+                   : IsLoopback(e.broker.endpoints.bind)
+                       ? "plaintext (loopback only)"
+                       : "PLAINTEXT on a network (--insecure): anyone reaching it can train or "
+                         "read the policy");
       b.Run(g_stop);
       return 0;
     }

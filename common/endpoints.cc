@@ -1,6 +1,7 @@
 #include "common/endpoints.h"
 
 #include <cerrno>
+#include <stdexcept>
 
 #include "common/config_section.h"
 
@@ -8,7 +9,7 @@ namespace ragdoll {
 Endpoints ReadEndpoints(const ConfigSection& s) {
   Endpoints e;
   e.host = s.Get<std::string>("host", e.host);
-  e.bind = s.Get<std::string>("bind", e.bind);
+  e.bind = s.Get<std::string>("bind", IsLoopback(e.host) ? std::string("127.0.0.1") : e.bind);
   e.trajectory_port = s.GetPort("trajectory_port", e.trajectory_port);
   e.control_port = s.GetPort("control_port", e.control_port);
   e.snapshot_port = s.GetPort("snapshot_port", e.snapshot_port);
@@ -32,7 +33,35 @@ zmq::socket_t MakeSocket(zmq::context_t& context, zmq::socket_type type, const E
   socket.set(zmq::sockopt::rcvtimeo, receive_timeout_ms);
   socket.set(zmq::sockopt::sndtimeo, 1000);
   socket.set(zmq::sockopt::maxmsgsize, endpoints.max_message_bytes);
+  if (endpoints.curve.enabled()) {
+    socket.set(zmq::sockopt::curve_serverkey, endpoints.curve.server_key);
+    socket.set(zmq::sockopt::curve_publickey, endpoints.curve.public_key);
+    socket.set(zmq::sockopt::curve_secretkey, endpoints.curve.secret_key);
+  }
   return socket;
+}
+
+zmq::socket_t MakeServerSocket(zmq::context_t& context, zmq::socket_type type,
+                               const Endpoints& endpoints, const std::string& zap_domain) {
+  Endpoints plain = endpoints;
+  plain.curve = {};
+  zmq::socket_t socket = MakeSocket(context, type, plain, 0);
+  if (endpoints.curve.enabled()) {
+    socket.set(zmq::sockopt::curve_server, 1);
+    socket.set(zmq::sockopt::curve_secretkey, endpoints.curve.secret_key);
+    socket.set(zmq::sockopt::zap_domain, zap_domain);
+  }
+  return socket;
+}
+
+void CheckTransportSecurity(const Endpoints& endpoints, bool insecure) {
+  if (endpoints.curve.enabled() || insecure || IsLoopback(endpoints.bind)) return;
+  throw std::runtime_error(
+      "refusing to listen on " + endpoints.Bind(endpoints.trajectory_port) +
+      " in plaintext: anyone who reaches these ports could push trajectories into training or "
+      "read the weights. Make keys with `ragdoll keygen --keys keys` and give every role "
+      "`--keys keys` (or security.keys in the config); see deploy/README.md, \"Keys\". On a "
+      "network you trust, pass --insecure.");
 }
 
 bool Receive(zmq::socket_t& socket, zmq::message_t& message, zmq::recv_flags flags) {

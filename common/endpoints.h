@@ -7,13 +7,17 @@
 #include <cstdint>
 #include <string>
 
+#include "common/curve.h"
+
 namespace ragdoll {
 
 class ConfigSection;
 
 struct Endpoints {
-  std::string host = "127.0.0.1";    // where actors and the learner find the broker
-  std::string bind = "*";            // the interface the broker listens on
+  std::string host = "127.0.0.1";  // where actors and the learner find the broker
+  // The interface the broker listens on. Unset in the config: the host itself when it is a
+  // loopback address (everything on this machine), else every interface ("*").
+  std::string bind = "*";
   int trajectory_port = 5555;        // actors PUSH segments -> broker PULL
   int control_port = 5556;           // actors DEALER (hello, heartbeat, snapshot request) -> ROUTER
   int snapshot_port = 5557;          // broker PUB snapshots -> actors SUB (conflated)
@@ -21,6 +25,7 @@ struct Endpoints {
   int learner_snapshot_port = 5559;  // learner PUSH snapshots -> broker PULL
   int high_water_mark = 256;         // messages queued per socket before senders wait
   int64_t max_message_bytes = 64ll << 20;
+  Curve curve;  // this process's CURVE keys; none: plaintext
 
   std::string Bind(int port) const { return "tcp://" + bind + ":" + std::to_string(port); }
   std::string Connect(int port) const { return "tcp://" + host + ":" + std::to_string(port); }
@@ -31,9 +36,17 @@ Endpoints ReadEndpoints(const ConfigSection& section);
 
 // A socket with the project's settings: no linger on close (shutdown never hangs on unsent
 // messages), bounded queues, reconnection every 100 ms up to 2 s, and a receive timeout so that
-// loops can check their stop flag.
+// loops can check their stop flag. With CURVE keys it is a CURVE client of the broker.
 zmq::socket_t MakeSocket(zmq::context_t& context, zmq::socket_type type, const Endpoints& endpoints,
                          int receive_timeout_ms = 100);
+// The same settings for a socket the broker binds: with CURVE keys a CURVE server whose peers
+// are authenticated by the ZAP handler under `zap_domain` (the role allowed on it).
+zmq::socket_t MakeServerSocket(zmq::context_t& context, zmq::socket_type type,
+                               const Endpoints& endpoints, const std::string& zap_domain);
+
+// Throws std::runtime_error when the broker would listen beyond loopback in plaintext, unless
+// `insecure`: anyone reaching the ports could push trajectories into training or read weights.
+void CheckTransportSecurity(const Endpoints& endpoints, bool insecure);
 
 // recv/send that treat a signal's interruption (EINTR) like a timeout: false, nothing moved.
 // The caller's loop then checks its stop flag, which the signal handler has set.

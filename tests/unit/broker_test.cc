@@ -2,16 +2,34 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <filesystem>
 #include <map>
 #include <random>
+#include <thread>
 
 namespace ragdoll::broker {
 namespace {
 
-// The broker in this process on loopback ports, driven one poll at a time.
+// The broker in this process on loopback ports, driven one poll at a time; with `curve`, a
+// CURVE server whose keys folder holds one actor's and one learner's public key.
 class BrokerTest : public ::testing::Test {
  protected:
-  BrokerTest() {
+  explicit BrokerTest(bool curve = false) {
+    if (curve) {
+      keys_ =
+          std::filesystem::temp_directory_path() / ("broker_test_keys_" + std::to_string(getpid()));
+      std::filesystem::remove_all(keys_);
+      for (const char* role : {"broker", "actor", "learner"}) {
+        Certificate c = NewCertificate(role, role);
+        const std::string dir = role == std::string("broker") ? "" : std::string(role) + "s/";
+        SaveCertificate(c, (keys_ / (dir + role + ".key")).string(),
+                        (keys_ / (std::string(role) + ".key_secret")).string());
+      }
+      config_.endpoints.curve = LoadCurve(keys_.string(), "broker");
+      config_.keys_dir = keys_.string();
+    }
     config_.endpoints.host = "127.0.0.1";
     config_.endpoints.bind = "127.0.0.1";
     config_.endpoints.max_message_bytes = 1 << 20;
@@ -32,8 +50,15 @@ class BrokerTest : public ::testing::Test {
     }
     if (!broker_) throw std::runtime_error("no free ports for the broker");
   }
-  zmq::socket_t Connect(zmq::socket_type type, int port) {
-    zmq::socket_t s = MakeSocket(context_, type, config_.endpoints, 0);
+  ~BrokerTest() override {
+    broker_.reset();
+    if (!keys_.empty()) std::filesystem::remove_all(keys_);
+  }
+  // A client socket: plaintext, or CURVE with `curve`'s keys.
+  zmq::socket_t Connect(zmq::socket_type type, int port, const Curve& curve = {}) {
+    Endpoints e = config_.endpoints;
+    e.curve = curve;
+    zmq::socket_t s = MakeSocket(context_, type, e, 0);
     s.connect(config_.endpoints.Connect(port));
     return s;
   }
@@ -69,6 +94,7 @@ class BrokerTest : public ::testing::Test {
     return -1;
   }
 
+  std::filesystem::path keys_;
   MetricsEndpoint metrics_{"broker", "127.0.0.1", -1, "run"};
   zmq::context_t context_{1};
   BrokerConfig config_;
@@ -191,6 +217,118 @@ TEST_F(BrokerTest, RanksAGroupOfLearnerReplicasByTheirNewestCheckpoint) {
   // An impossible request is counted and dropped.
   other.send(zmq::buffer(hello("other", 0, "host-o", 0)), zmq::send_flags::none);
   EXPECT_TRUE(PollUntil([&] { return broker_->counters().Rejected() == 1; }));
+}
+
+class CurveBrokerTest : public BrokerTest {
+ protected:
+  CurveBrokerTest() : BrokerTest(true) {}
+  Curve Keys(const std::string& role) { return LoadCurve(keys_.string(), role); }
+  // Keys of a pair the broker has never seen.
+  Curve Stranger() {
+    Curve c = Keys("actor");
+    Certificate fresh = NewCertificate("stranger", "actor");
+    c.public_key = fresh.public_key;
+    c.secret_key = fresh.secret_key;
+    return c;
+  }
+  double Refused(const char* reason) {
+    return Metric("ragdoll_broker_connections_refused_total", {{"reason", reason}});
+  }
+  // Polls for about `seconds`.
+  void PollFor(double seconds) {
+    for (int i = 0; i < seconds * 100; ++i) broker_->PollOnce(10);
+  }
+};
+
+TEST_F(CurveBrokerTest, ForwardsOnlyFromKeysOfTheRightRoleAndCountsEveryRefusal) {
+  v1::TrajectorySegment segment;
+  segment.set_actor_id("a");
+  auto segment_from = [&](const std::string& who) {
+    return wire::Pack(v1::KIND_TRAJECTORY, "run", who, segment, 3);
+  };
+  zmq::socket_t learner =
+      Connect(zmq::socket_type::pull, config_.endpoints.learner_port, Keys("learner"));
+  zmq::socket_t actor =
+      Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, Keys("actor"));
+  actor.send(zmq::buffer(segment_from("actor")), zmq::send_flags::none);
+  zmq::message_t m;
+  ASSERT_TRUE(Receive(learner, &m));
+  EXPECT_EQ(m.to_string(), segment_from("actor"));
+
+  // Intruders: a key the broker does not know, a plaintext client, a client that trusts another
+  // broker key, and the learner's key on an actor's socket. Each sends, none gets a message in.
+  Curve wrong_server = Keys("actor");
+  wrong_server.server_key = NewCertificate("impostor", "broker").public_key;
+  std::vector<zmq::socket_t> intruders;
+  intruders.push_back(
+      Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, Stranger()));
+  intruders.push_back(Connect(zmq::socket_type::push, config_.endpoints.trajectory_port));
+  intruders.push_back(
+      Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, wrong_server));
+  intruders.push_back(
+      Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, Keys("learner")));
+  for (auto& s : intruders)
+    s.send(zmq::buffer(segment_from("intruder")), zmq::send_flags::dontwait);
+  PollFor(1.5);
+  EXPECT_FALSE(learner.recv(m, zmq::recv_flags::dontwait));
+  EXPECT_EQ(broker_->counters().forwarded, 1);
+  EXPECT_EQ(broker_->counters().Rejected(), 0);  // refused before any message arrives
+  EXPECT_GE(Refused("unknown_key"), 1);
+  EXPECT_GE(Refused("not_curve"), 1);
+  EXPECT_GE(Refused("bad_handshake"), 1);
+  EXPECT_GE(Refused("wrong_role"), 1);
+  // An actor's key cannot take the learner's segments either.
+  zmq::socket_t thief =
+      Connect(zmq::socket_type::pull, config_.endpoints.learner_port, Keys("actor"));
+  const double wrong_role = Refused("wrong_role");
+  PollFor(0.5);
+  EXPECT_GT(Refused("wrong_role"), wrong_role);
+  actor.send(zmq::buffer(segment_from("actor")), zmq::send_flags::none);
+  ASSERT_TRUE(Receive(learner, &m));
+  EXPECT_FALSE(thief.recv(m, zmq::recv_flags::dontwait));
+  EXPECT_EQ(Metric("ragdoll_broker_connections_accepted_total", {{"role", "actor"}}), 1);
+  EXPECT_EQ(Metric("ragdoll_broker_connections_accepted_total", {{"role", "learner"}}), 1);
+}
+
+TEST_F(CurveBrokerTest, AcceptsAKeyAddedToTheFolderWhileRunning) {
+  Certificate late = NewCertificate("late", "actor");
+  Curve curve = Keys("actor");
+  curve.public_key = late.public_key;
+  curve.secret_key = late.secret_key;
+  zmq::socket_t learner =
+      Connect(zmq::socket_type::pull, config_.endpoints.learner_port, Keys("learner"));
+  {
+    zmq::socket_t early = Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, curve);
+    PollFor(0.5);
+    EXPECT_GE(Refused("unknown_key"), 1);
+  }
+  // keygen's layout: the public certificate lands in actors/; the broker re-reads the folder.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  SaveCertificate(late, (keys_ / "actors" / "late.key").string(), "");
+  zmq::socket_t actor = Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, curve);
+  v1::TrajectorySegment segment;
+  actor.send(zmq::buffer(wire::Pack(v1::KIND_TRAJECTORY, "run", "late", segment, 1)),
+             zmq::send_flags::none);
+  zmq::message_t m;
+  EXPECT_TRUE(Receive(learner, &m));
+}
+
+TEST_F(CurveBrokerTest, OnlyALearnersKeyMayJoinALearnerGroup) {
+  auto ask = [&](const Curve& keys, const std::string& id) {
+    zmq::socket_t s = Connect(zmq::socket_type::dealer, config_.endpoints.control_port, keys);
+    v1::ReplicaHello h;
+    h.set_replica_id(id);
+    h.set_replicas(1);
+    h.set_address("host");
+    h.set_store_port(6000);
+    s.send(zmq::buffer(wire::Pack(v1::KIND_REPLICA_HELLO, "run", id, h)), zmq::send_flags::none);
+    zmq::message_t m;
+    return Receive(s, &m);
+  };
+  EXPECT_FALSE(ask(Keys("actor"), "posing-as-learner"));
+  EXPECT_EQ(broker_->counters().rejected[static_cast<int>(wire::Rejection::kKind)], 1);
+  EXPECT_TRUE(ask(Keys("learner"), "learner"));
+  EXPECT_EQ(broker_->replica_groups(), 1);
 }
 
 }  // namespace
