@@ -54,7 +54,9 @@ class ConnectionMonitor : public zmq::monitor_t {
                    std::to_string(event.value) + "): is KEYS/broker.key this broker's key?");
   }
   void on_event_handshake_failed_no_detail(const zmq_event_t&, const char*) override {
-    Warn("the handshake with the broker failed");
+    Warn(
+        "the handshake with the broker failed: the broker and this actor disagree on security "
+        "(CURVE keys or plaintext), or on the broker's key");
   }
   void Warn(const std::string& message) {
     auto now = Clock::now();

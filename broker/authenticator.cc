@@ -28,7 +28,10 @@ class Authenticator::Watcher : public zmq::monitor_t {
     Reason reason = kProtocol;
     if (event.value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH) reason = kNotCurve;
     if (event.value == ZMQ_PROTOCOL_ERROR_ZMTP_CRYPTOGRAPHIC) reason = kBadHandshake;
-    owner_.Refuse(reason, name_ + " socket, peer " + std::string(address ? address : "?"));
+    char code[16];
+    std::snprintf(code, sizeof(code), "0x%x", event.value);
+    owner_.Refuse(reason, name_ + " socket, peer " + std::string(address ? address : "?") +
+                              ", ZMTP error " + code);
   }
   void on_event_handshake_failed_no_detail(const zmq_event_t&, const char* address) override {
     owner_.Refuse(kProtocol, name_ + " socket, peer " + std::string(address ? address : "?"));

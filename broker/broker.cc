@@ -159,11 +159,17 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
                                      config_.endpoints.max_message_bytes, &header, &offset);
   if (!v.ok()) return Reject(v, "control");
   if (!CheckRun(header, "control")) return;
+  // Under CURVE each kind comes from its role's keys only: a learner's key neither streams
+  // snapshots as an actor nor an actor's key joins a learner group.
+  const bool from_learner = header.kind() == v1::KIND_REPLICA_HELLO;
+  if (authenticator_ &&
+      Authenticator::RoleOf(message) != (from_learner ? kLearnerDomain : kActorDomain)) {
+    return Reject(
+        {wire::Rejection::kKind, std::string(from_learner ? "a learner's" : "an actor's") +
+                                     " message from a key of the other role"},
+        "control");
+  }
   if (header.kind() == v1::KIND_REPLICA_HELLO) {
-    if (authenticator_ && Authenticator::RoleOf(message) != kLearnerDomain) {
-      return Reject({wire::Rejection::kKind, "replica hello from a key that is not a learner's"},
-                    "control");
-    }
     v1::ReplicaHello hello;
     if (!hello.ParseFromArray(static_cast<const char*>(message.data()) + offset,
                               static_cast<int>(message.size() - offset))) {
