@@ -3,7 +3,8 @@
 # here with debootstrap, since no registry is reachable), brings deploy/docker-compose.yml up with
 # Podman and two actors, waits until the learner has published several policy versions and
 # Prometheus holds the reward series, restarts the learner container and checks that it resumed
-# from the checkpoint volume, scales the learner to two replicas (a group at the broker), kills
+# from the checkpoint volume, checks that the broker speaks only CURVE (a plaintext actor and one
+# with a stranger's key, started on the stack's network, are refused), scales the learner to two replicas (a group at the broker), kills
 # one and sees the group re-form and train on, then tears everything down. Prints the figures it
 # measured.
 #   tests/e2e/compose_test.sh            (from anywhere; needs root or rootless Podman)
@@ -26,6 +27,7 @@ compose=(podman-compose -p "$project" -f "$repo/deploy/docker-compose.yml")
 
 log() { echo "[$(date +%T)] $*"; }
 cleanup() {
+  podman rm -f "${project}_plaintext" "${project}_stranger" > /dev/null 2>&1 || true
   "${compose[@]}" down -v > "$work/down.log" 2>&1 || true
   podman volume rm -f "${project}_runs" "${project}_prometheus" > /dev/null 2>&1 || true
   rm -rf "$work"
@@ -82,7 +84,11 @@ image_size=$(podman image inspect "$RAGDOLL_IMAGE" --format '{{.Size}}')
 base_size=$(podman image inspect localhost/bookworm-base --format '{{.Size}}')
 log "images built in ${build_s}s; ragdoll image $((image_size / 1000000)) MB (base $((base_size / 1000000)) MB)"
 
-# 2. The stack: broker, learner, two actors, Prometheus.
+# 2. The stack: broker, learner, two actors, Prometheus; CURVE keys and the Grafana password from
+#    deploy/make-secrets.sh, delivered as compose secrets.
+"$repo/deploy/make-secrets.sh" "$work/secrets" > "$work/secrets.log" 2>&1 ||
+  { cat "$work/secrets.log"; fail "make-secrets"; }
+export RAGDOLL_SECRETS="$work/secrets"
 t0=$SECONDS
 "${compose[@]}" up -d broker learner actor prometheus > "$work/up.log" 2>&1 ||
   { cat "$work/up.log"; fail "compose up"; }
@@ -92,6 +98,8 @@ mapfile -t actors < <(containers actor)
 for c in "$broker" "$learner" "${actors[@]}"; do wait_for 180 "$c to be healthy" healthy "$c"; done
 healthy_s=$((SECONDS - t0))
 log "stack healthy after ${healthy_s}s: $broker $learner ${actors[*]}"
+podman logs "$broker" 2>&1 | grep -q "CURVE on; 1 actor and 1 learner keys" || fail "the broker is not on CURVE"
+podman logs "$broker" 2>&1 | grep -q "listening on tcp://\*:5555 .*CURVE" || fail "the broker does not listen with CURVE"
 
 # 3. Training goes on: several policy versions, and Prometheus has the reward series from
 #    every role (each actor replica found through the service's DNS name).
@@ -110,6 +118,35 @@ log "Prometheus: ragdoll_episode_normalized_return $(echo "$reward" | jq -c '[.d
 log "Prometheus: policy version $(query ragdoll_policy_version), trained samples $(query ragdoll_learner_run_samples)," \
   "$(query 'sum(rate(ragdoll_actor_samples_total[30s]))' | cut -c1-6) samples/s from $(query 'count(ragdoll_actor_samples_total)') actors," \
   "$(query ragdoll_broker_actors_connected) connected, broker forwarded $(query ragdoll_broker_segments_forwarded_total) segments"
+
+# 3b. Intruders on the stack's network: a plaintext actor and one with its own key pair. Neither
+#     gets a policy; the broker counts both refusals; its own actors keep training.
+network=$(podman network ls --format '{{.Name}}' | grep "^${project}_ragdoll" | head -n 1)
+mkdir -p "$work/rogue"
+cp "$work/secrets/keys/broker.key" "$work/rogue/"
+podman run --rm --user 0 -v "$work/rogue:/keys" "$RAGDOLL_IMAGE" keygen rogue --role actor --keys /keys > /dev/null ||
+  fail "keygen in the image"
+chmod 0644 "$work/rogue/rogue.key_secret"
+intruder() {  # name, extra options
+  podman run -d --name "${project}_$1" --network "$network" -v "$RAGDOLL_CONFIG_DIR:/opt/ragdoll/configs:ro" \
+    -v "$work/rogue:/rogue:ro" "$RAGDOLL_IMAGE" actor /opt/ragdoll/configs/e2e.yaml --run-id e2e \
+    --broker-host broker "${@:2}" > /dev/null || fail "intruder $1"
+}
+intruder plaintext
+intruder stranger --keys /rogue --key /rogue/rogue.key_secret
+refused() {
+  podman exec "$broker" curl -sf http://127.0.0.1:9301/metrics |
+    awk '/^ragdoll_broker_connections_refused_total/ { s += $2 } END { print s + 0 }'
+}
+wait_for 60 "the broker to refuse both intruders" bash -c "[ \$(podman exec '$broker' curl -sf http://127.0.0.1:9301/metrics | awk '/^ragdoll_broker_connections_refused_total.*reason=\"unknown_key\"/ { s += \$2 } END { print s + 0 }') -gt 0 ]"
+sleep 5
+for c in plaintext stranger; do
+  v=$(podman exec "${project}_$c" curl -sf http://127.0.0.1:9310/metrics | awk '/^ragdoll_actor_snapshot_version/ { print $2 }')
+  [ "$v" = "-1" ] || fail "intruder $c got policy $v"
+  podman rm -f "${project}_$c" > /dev/null
+done
+log "intruders refused: $(refused) connections ($(podman exec "$broker" curl -sf http://127.0.0.1:9301/metrics |
+  awk '/^ragdoll_broker_connections_refused_total/ && $2 > 0 { sub(/.*reason="/, "", $1); sub(/".*/, "", $1); printf "%s %d ", $1, $2 }'))"
 
 # 4. Restart the learner container: it resumes from the checkpoint in the `runs` volume.
 podman stop -t 60 "$learner" > /dev/null
