@@ -250,19 +250,38 @@ class Replay {
 
 struct Ports {
   int base;
-  Endpoints endpoints;
+  Endpoints endpoints;  // plaintext, or CURVE with an actor's keys
+  Endpoints learner;    // the same with the learner's keys
+  std::string keys;     // the CURVE keys folder; empty: plaintext
   int learner_metrics(int index) const { return index == 0 ? base + 10 : base + 50 + index; }
   int broker_metrics() const { return base + 11; }
+  // The options that give a ragdoll process the keys.
+  std::vector<std::string> KeyArgs() const {
+    return keys.empty() ? std::vector<std::string>{} : std::vector<std::string>{"--keys", keys};
+  }
 };
 
-Ports MakePorts(int base, const Endpoints& from) {
-  Ports p{base, from};
+// A ragdoll role's command line: ROLE CONFIG --run-id --port-base, the keys, then `extra`.
+std::vector<std::string> RoleArgs(const std::string& role, const std::string& config,
+                                  const Ports& ports, std::vector<std::string> extra = {}) {
+  std::vector<std::string> a = {role, config,        "--run-id",
+                                kRun, "--port-base", std::to_string(ports.base)};
+  for (auto& k : ports.KeyArgs()) a.push_back(k);
+  for (auto& x : extra) a.push_back(x);
+  return a;
+}
+
+Ports MakePorts(int base, const Endpoints& from, const std::string& keys) {
+  Ports p{base, from, from, keys};
   p.endpoints.host = "127.0.0.1";
   p.endpoints.trajectory_port = base;
   p.endpoints.control_port = base + 1;
   p.endpoints.snapshot_port = base + 2;
   p.endpoints.learner_port = base + 3;
   p.endpoints.learner_snapshot_port = base + 4;
+  p.endpoints.curve = LoadCurve(keys, "actor");
+  p.learner = p.endpoints;
+  p.learner.curve = LoadCurve(keys, "learner");
   return p;
 }
 
@@ -278,13 +297,12 @@ bool WaitFor(double seconds, const std::function<bool()>& done) {
 // The broker with a sink in the learner's place: its forwarding ceiling.
 nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config,
                            const Recording& rec, const Ports& ports, double seconds, int senders) {
-  Process broker(ragdoll,
-                 {"broker", config, "--run-id", kRun, "--port-base", std::to_string(ports.base)});
+  Process broker(ragdoll, RoleArgs("broker", config, ports));
   zmq::context_t context(2);
   std::atomic<bool> stop{false};
   std::atomic<int64_t> received{0}, bytes{0};
   std::thread sink([&] {
-    zmq::socket_t pull = MakeSocket(context, zmq::socket_type::pull, ports.endpoints);
+    zmq::socket_t pull = MakeSocket(context, zmq::socket_type::pull, ports.learner);
     pull.connect(ports.endpoints.Connect(ports.endpoints.learner_port));
     while (!stop.load()) {
       zmq::message_t m;
@@ -344,16 +362,14 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
     emitter << node;
     std::ofstream(bench_config) << emitter.c_str() << "\n";
   }
-  const std::string port_base = std::to_string(ports.base);
-  Process broker(ragdoll,
-                 {"broker", bench_config.string(), "--run-id", kRun, "--port-base", port_base});
+  Process broker(ragdoll, RoleArgs("broker", bench_config.string(), ports));
   std::vector<std::unique_ptr<Process>> learners;
   for (int i = 0; i < replicas; ++i) {
     learners.push_back(std::make_unique<Process>(
         ragdoll,
-        std::vector<std::string>{"learner", bench_config.string(), "--run-id", kRun, "--port-base",
-                                 port_base, "--run-dir", (dir / "run").string(), "--replicas",
-                                 std::to_string(replicas), "--index", std::to_string(i)},
+        RoleArgs("learner", bench_config.string(), ports,
+                 {"--run-dir", (dir / "run").string(), "--replicas", std::to_string(replicas),
+                  "--index", std::to_string(i)}),
         pin ? i % static_cast<int>(std::thread::hardware_concurrency()) : -1));
   }
   auto trained = [&] { return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples"); };
@@ -403,8 +419,7 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
 nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& config,
                               const Recording& rec, const Ports& ports, int subscribers,
                               int repeats) {
-  Process broker(ragdoll,
-                 {"broker", config, "--run-id", kRun, "--port-base", std::to_string(ports.base)});
+  Process broker(ragdoll, RoleArgs("broker", config, ports));
   zmq::context_t context(2);
   std::vector<zmq::socket_t> subs;
   for (int i = 0; i < subscribers; ++i) {
@@ -413,7 +428,7 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
     subs.back().set(zmq::sockopt::subscribe, "");
     subs.back().connect(ports.endpoints.Connect(ports.endpoints.snapshot_port));
   }
-  zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, ports.endpoints);
+  zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, ports.learner);
   push.connect(ports.endpoints.Connect(ports.endpoints.learner_snapshot_port));
   v1::Header header;
   v1::PolicySnapshot snapshot;
@@ -466,7 +481,7 @@ int main(int argc, char** argv) {
   std::string ragdoll = (fs::canonical("/proc/self/exe").parent_path() / "ragdoll").string();
   double seconds = 20;
   int subscribers = 100, senders = 2, port_base = 27000;
-  bool pin = false;
+  bool pin = false, curve = false;
   app.add_option("config", config, "experiment YAML")->required();
   app.add_option("--ragdoll", ragdoll, "the ragdoll binary")->capture_default_str();
   app.add_option("--seconds", seconds, "measuring window per figure")->capture_default_str();
@@ -482,20 +497,38 @@ int main(int argc, char** argv) {
   app.add_flag("--pin", pin,
                "pin learner replica i to core i (the broker and synthetic actors float), so "
                "that each replica has a core of its own");
+  app.add_flag("--curve", curve,
+               "every socket on CURVE (keys made in build/bench-cluster-keys), to compare with a "
+               "plaintext run");
   CLI11_PARSE(app, argc, argv);
   try {
     cli::Experiment e = cli::ReadExperiment(config);
-    const Ports ports = MakePorts(port_base, e.broker.endpoints);
+    std::string keys;
+    if (curve) {
+      keys = (fs::path(ragdoll).parent_path() / "bench-cluster-keys").string();
+      fs::remove_all(keys);
+      for (const char* role : {"broker", "actor", "learner"}) {
+        const fs::path pub =
+            role == std::string("broker")
+                ? fs::path(keys) / "broker.key"
+                : fs::path(keys) / (std::string(role) + "s") / (std::string(role) + ".key");
+        SaveCertificate(NewCertificate(role, role), pub.string(),
+                        (fs::path(keys) / (std::string(role) + ".key_secret")).string());
+      }
+    }
+    const Ports ports = MakePorts(port_base, e.broker.endpoints, keys);
     const int buffer_segments =
         static_cast<int>(e.trainer.buffer_size / e.trainer.time_horizon) + 1;
     std::fprintf(stderr, "recording %d segments from %s ...\n", buffer_segments, config.c_str());
     const Recording rec = Record(e, buffer_segments);
     nlohmann::json result = {{"config", config},
+                             {"curve", curve},
                              {"cores", std::thread::hardware_concurrency()},
                              {"bytes_per_sample", rec.bytes_per_sample},
                              {"time_horizon", rec.time_horizon}};
-    std::printf("cluster benchmark (%s, %u cores, %.0f bytes per sample on the wire)\n",
-                config.c_str(), std::thread::hardware_concurrency(), rec.bytes_per_sample);
+    std::printf("cluster benchmark (%s, %u cores, %.0f bytes per sample on the wire, %s)\n",
+                config.c_str(), std::thread::hardware_concurrency(), rec.bytes_per_sample,
+                curve ? "CURVE" : "plaintext");
 
     nlohmann::json broker = BenchBroker(ragdoll, config, rec, ports, seconds, senders);
     result["broker"] = broker;
