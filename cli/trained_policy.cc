@@ -1,6 +1,8 @@
 #include "cli/trained_policy.h"
 
+#include <cstdio>
 #include <filesystem>
+#include <vector>
 
 #include "actor/rollout.h"
 #include "common/config_section.h"
@@ -11,8 +13,17 @@ namespace ragdoll::cli {
 
 TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   TrainedPolicy p;
-  p.checkpoint = learner::FindCheckpoint(run_or_checkpoint);
-  if (p.checkpoint.empty()) throw ConfigError(run_or_checkpoint + ": no checkpoint found");
+  std::vector<std::string> damaged;
+  p.checkpoint = learner::FindGoodCheckpoint(run_or_checkpoint, &damaged);
+  for (const auto& reason : damaged) {
+    std::fprintf(stderr, "ragdoll: %s; %s\n", reason.c_str(),
+                 p.checkpoint.empty() ? "no older checkpoint is whole"
+                                      : ("using the previous one, " + p.checkpoint).c_str());
+  }
+  if (p.checkpoint.empty()) {
+    throw ConfigError(run_or_checkpoint +
+                      (damaged.empty() ? ": no checkpoint found" : ": no whole checkpoint found"));
+  }
   // Checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml.
   auto run = std::filesystem::path(p.checkpoint).parent_path().parent_path();
   p.experiment = ReadExperiment((run / "config.yaml").string());

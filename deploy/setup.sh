@@ -13,8 +13,8 @@ packages=(
   # libtorch links libblas.so.3; OpenBLAS registers itself as that alternative and is 5-10x
   # faster than the reference BLAS for the policy's matrix products (docs/environment measured).
   libopenblas0-openmp
-  # transport, wire format, metrics
-  libzmq3-dev cppzmq-dev libprotobuf-dev protobuf-compiler prometheus-cpp-dev
+  # transport, wire format, metrics; checkpoint checksums (SHA-256)
+  libzmq3-dev cppzmq-dev libprotobuf-dev protobuf-compiler prometheus-cpp-dev libsodium-dev
   # config, command line, JSON
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks

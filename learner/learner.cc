@@ -1,5 +1,7 @@
 #include "learner/learner.h"
 
+#include "learner/checkpoint_file.h"
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -8,6 +10,7 @@
 #include <sstream>
 
 #include "common/config_section.h"
+#include "learner/checkpoint_file.h"
 #include "learner/ppo.h"
 
 namespace ragdoll::learner {
@@ -385,11 +388,7 @@ void Learner::SaveArchive(torch::serialize::OutputArchive& archive,
 }
 
 void Learner::Save(const std::string& path, const std::string& config_text) {
-  torch::serialize::OutputArchive archive;
-  SaveArchive(archive, config_text);
-  std::string tmp = path + ".tmp";
-  archive.save_to(tmp);
-  std::filesystem::rename(tmp, path);
+  WriteCheckpointFile(path, SaveToBytes(config_text));
 }
 
 std::string Learner::SaveToBytes(const std::string& config_text) {
@@ -410,13 +409,13 @@ ConfigError Unreadable(const std::string& source, const std::exception& e) {
 }  // namespace
 
 std::string Learner::Load(const std::string& path) {
-  torch::serialize::InputArchive archive;
+  std::string payload;
   try {
-    archive.load_from(path);
+    payload = ReadCheckpointFile(path);
   } catch (const std::exception& e) {
-    throw Unreadable(path, e);
+    throw ConfigError(e.what());
   }
-  return LoadArchive(archive, path);
+  return LoadFromBytes(payload, path);
 }
 
 std::string Learner::LoadFromBytes(const std::string& bytes, const std::string& source) {

@@ -64,9 +64,11 @@ class Learner {
   void SyncFromRankZero();
 
   v1::PolicySnapshot Snapshot();
-  // Writes the whole training state atomically (temporary file, then rename).
+  // Writes the whole training state atomically, with its checksum (learner/checkpoint_file.h);
+  // throws std::runtime_error when it cannot (a full disk), leaving other files untouched.
   void Save(const std::string& path, const std::string& config_text);
-  // Restores the state written by Save; throws ConfigError naming the file on any mismatch.
+  // Restores the state written by Save; throws ConfigError naming the file on any mismatch,
+  // truncation or checksum failure.
   // Returns the config text stored in the checkpoint.
   std::string Load(const std::string& path);
   // The same state as bytes (what Save writes to a file).

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +17,7 @@
 #include "common/config_section.h"
 #include "common/metrics.h"
 #include "common/wire.h"
+#include "learner/checkpoint_file.h"
 #include "learner/learner.h"
 #include "learner/replica_group.h"
 
@@ -90,6 +92,9 @@ struct LearnerMetrics {
         stale(m.Counter("ragdoll_learner_stale_segments_dropped_total",
                         "Segments dropped for exceeding max_policy_lag")),
         checkpoints(m.Counter("ragdoll_learner_checkpoints_total", "Checkpoints written")),
+        checkpoint_failures(m.Counter("ragdoll_learner_checkpoint_failures_total",
+                                      "Checkpoints that could not be written (full disk, file "
+                                      "size limit); training went on")),
         idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
                                "Wall time spent waiting for segments (nothing to do)")) {
     for (const char* term : {"rotation", "velocity", "end_effector", "com", "root"}) {
@@ -114,7 +119,7 @@ struct LearnerMetrics {
   prometheus::Counter &skipped_steps, &samples;
   prometheus::Gauge &run_samples, &samples_per_second, &version;
   prometheus::Histogram& lag;
-  prometheus::Counter &stale, &checkpoints, &idle_seconds;
+  prometheus::Counter &stale, &checkpoints, &checkpoint_failures, &idle_seconds;
   std::vector<prometheus::Gauge*> terms;
   std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
 };
@@ -221,16 +226,37 @@ std::string FindCheckpoint(const std::string& run_or_checkpoint) {
   return all.empty() ? "" : all.back().string();
 }
 
+std::string FindGoodCheckpoint(const std::string& run_or_checkpoint,
+                               std::vector<std::string>* skipped) {
+  fs::path p(run_or_checkpoint);
+  if (fs::is_regular_file(p)) {
+    std::string damage = CheckCheckpointFile(p.string());
+    if (!damage.empty()) throw ConfigError(damage);
+    return p.string();
+  }
+  auto all = Checkpoints(p / "checkpoints");
+  for (auto it = all.rbegin(); it != all.rend(); ++it) {
+    std::string damage = CheckCheckpointFile(it->string());
+    if (damage.empty()) return it->string();
+    if (skipped) skipped->push_back(damage);
+  }
+  return "";
+}
+
 int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop) {
   at::set_num_threads(trainer.threads);
+  // Past a file size limit (RLIMIT_FSIZE) a write fails with EFBIG instead of killing us: a
+  // checkpoint that does not fit is a logged failure, not a crash.
+  std::signal(SIGXFSZ, SIG_IGN);
   const fs::path checkpoints = fs::path(config.run_dir) / "checkpoints";
   fs::create_directories(checkpoints);
   zmq::context_t context(1);
 
   std::unique_ptr<ReplicaGroup> group;
   if (config.replica.replicas > 1) {
-    const int64_t newest = config.resume ? CheckpointSamples(FindCheckpoint(config.run_dir)) : -1;
+    const int64_t newest =
+        config.resume ? CheckpointSamples(FindGoodCheckpoint(config.run_dir)) : -1;
     auto assignment = JoinGroup(context, config, endpoints, newest, stop);
     if (!assignment) return 0;  // stopped before the group formed: nothing trained, nothing to save
     ReplicaGroupConfig g;
@@ -253,10 +279,21 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   if (!leader) {
     // Rank 0's state arrives below.
   } else if (config.resume) {
-    std::string path = FindCheckpoint(config.run_dir);
+    std::vector<std::string> damaged;
+    std::string path = FindGoodCheckpoint(config.run_dir, &damaged);
+    // A damaged checkpoint is set aside (renamed *.damaged), so that the ones written from here
+    // on, whose sample counts are lower, are not deleted before it by keep_checkpoints.
+    for (const auto& reason : damaged) {
+      const std::string file = reason.substr(0, reason.find(": "));
+      std::error_code error;
+      fs::rename(file, file + ".damaged", error);
+      std::fprintf(stderr, "learner: --resume: %s; set aside as %s.damaged%s\n", reason.c_str(),
+                   fs::path(file).filename().c_str(),
+                   path.empty() ? "" : ("; using " + path + " instead").c_str());
+    }
     if (path.empty()) {
-      std::fprintf(stderr, "learner: --resume: no checkpoint in %s; starting fresh\n",
-                   checkpoints.c_str());
+      std::fprintf(stderr, "learner: --resume: no %scheckpoint in %s; starting fresh\n",
+                   damaged.empty() ? "" : "good ", checkpoints.c_str());
     } else {
       learner.Load(path);
       std::fprintf(stderr, "learner: resumed from %s at policy v%lld, %lld samples\n", path.c_str(),
@@ -277,16 +314,26 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   metrics.run_samples.Set(static_cast<double>(learner.samples()));
   const int64_t start_stale = learner.stale_dropped();
 
+  // A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
+  // the earlier ones stay, none is deleted for it, and training goes on.
   auto save = [&](const char* why) {
     char name[64];
     std::snprintf(name, sizeof(name), "checkpoint-%012lld.pt",
                   static_cast<long long>(learner.samples()));
     fs::path path = checkpoints / name;
-    learner.Save(path.string(), config.config_text);
+    try {
+      learner.Save(path.string(), config.config_text);
+    } catch (const std::exception& error) {
+      metrics.checkpoint_failures.Increment();
+      std::fprintf(stderr, "learner: %s checkpoint FAILED: %s [%lld failures so far]\n", why,
+                   error.what(), static_cast<long long>(metrics.checkpoint_failures.Value()));
+      return false;
+    }
     metrics.checkpoints.Increment();
     auto all = Checkpoints(checkpoints);
     for (size_t i = 0; i + trainer.keep_checkpoints < all.size(); ++i) fs::remove(all[i]);
     std::fprintf(stderr, "learner: %s checkpoint %s\n", why, path.c_str());
+    return true;
   };
 
   // Every replica pulls its share of the segments (the broker's PUSH deals them round-robin);
@@ -446,7 +493,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       last_publish = Clock::now();
     }
   }
-  if (leader) save(stopped ? "final (stopped)" : "final (max_steps reached)");
+  if (leader && !save(stopped ? "final (stopped)" : "final (max_steps reached)")) return 1;
   return 0;
 }
 

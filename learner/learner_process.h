@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <string>
+#include <vector>
 
 #include "common/endpoints.h"
 #include "learner/trainer_config.h"
@@ -53,5 +54,11 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
 
 // The newest checkpoint file of a run folder or a checkpoint path itself; "" when none.
 std::string FindCheckpoint(const std::string& run_or_checkpoint);
+
+// The newest checkpoint of a run folder that is whole (its checksum matches), or a checkpoint
+// path itself when whole; "" when none. Each damaged one passed over is described in `skipped`
+// (file and reason). A damaged file given by path throws ConfigError naming the damage.
+std::string FindGoodCheckpoint(const std::string& run_or_checkpoint,
+                               std::vector<std::string>* skipped = nullptr);
 
 }  // namespace ragdoll::learner

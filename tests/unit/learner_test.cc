@@ -11,7 +11,13 @@
 #include <stdexcept>
 #include <thread>
 
+#include <sys/resource.h>
+
+#include <csignal>
+
 #include "common/config_section.h"
+#include "learner/checkpoint_file.h"
+#include "learner/learner_process.h"
 #include "learner/ppo.h"
 #include "learner/replica_group.h"
 #include "learner/trainer_config.h"
@@ -301,6 +307,130 @@ TEST_F(LearnerTest, BadCheckpointsAreRejectedNamingTheFile) {
   auto size = std::filesystem::file_size(good);
   std::filesystem::resize_file(good, size / 2);
   EXPECT_THROW(learner.Load(good), ConfigError);
+}
+
+// The error `f` throws, or "" when it throws none.
+template <typename F>
+std::string ErrorOf(F f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST_F(LearnerTest, CheckpointFilesCarryAChecksumThatCatchesTruncationAndBitFlips) {
+  Learner learner(SmallConfig(), kObs, kAct);
+  const std::string path = (dir_ / "checkpoint-000000000032.pt").string();
+  learner.Save(path, "trainer: {}\n");
+  std::ifstream in(path, std::ios::binary);
+  std::string header;
+  std::getline(in, header);
+  const std::string payload = learner.SaveToBytes("trainer: {}\n");
+  EXPECT_EQ(header, "ragdoll-checkpoint 1 bytes=" + std::to_string(payload.size()) +
+                        " sha256=" + Sha256Hex(payload));
+  bool verified = false;
+  EXPECT_EQ(ReadCheckpointFile(path, &verified).size(), payload.size());
+  EXPECT_TRUE(verified);
+  // SHA-256 of "abc" (FIPS 180-2's test vector).
+  EXPECT_EQ(Sha256Hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+
+  auto damaged = [&](const std::string& name, auto change) {
+    const std::string copy = (dir_ / name).string();
+    std::filesystem::copy_file(path, copy, std::filesystem::copy_options::overwrite_existing);
+    std::fstream f(copy, std::ios::in | std::ios::out | std::ios::binary);
+    change(f, copy);
+    f.close();
+    return copy;
+  };
+  const auto size = std::filesystem::file_size(path);
+  const std::string truncated = damaged("truncated.pt", [&](std::fstream&, const std::string& c) {
+    std::filesystem::resize_file(c, size - 100);
+  });
+  EXPECT_EQ(CheckCheckpointFile(truncated),
+            truncated + ": truncated: " + std::to_string(payload.size() - 100) +
+                " bytes of training state, the header says " + std::to_string(payload.size()));
+  // One bit flipped in the middle of the training state.
+  const std::string flipped = damaged("flipped.pt", [&](std::fstream& f, const std::string&) {
+    f.seekg(static_cast<std::streamoff>(size / 2));
+    char c = 0;
+    f.get(c);
+    f.seekp(static_cast<std::streamoff>(size / 2));
+    f.put(static_cast<char>(c ^ 0x10));
+  });
+  EXPECT_NE(CheckCheckpointFile(flipped).find("checksum mismatch"), std::string::npos);
+  const std::string header_hit = damaged("header.pt", [&](std::fstream& f, const std::string&) {
+    f.seekp(30);
+    f.put('#');
+  });
+  EXPECT_NE(CheckCheckpointFile(header_hit).find("damaged header"), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { learner.Load(flipped); }).find(flipped + ": checksum mismatch"),
+            std::string::npos);
+  const std::string empty = (dir_ / "empty.pt").string();
+  std::ofstream(empty).close();
+  EXPECT_EQ(CheckCheckpointFile(empty), empty + ": empty file: not a checkpoint");
+
+  // A checkpoint written before checksums (a bare libtorch archive) still loads, unverified.
+  const std::string old = (dir_ / "old.pt").string();
+  std::ofstream(old, std::ios::binary) << payload;
+  EXPECT_EQ(ReadCheckpointFile(old, &verified), payload);
+  EXPECT_FALSE(verified);
+  Learner restored(SmallConfig(), kObs, kAct);
+  EXPECT_EQ(restored.Load(old), "trainer: {}\n");
+}
+
+TEST_F(LearnerTest, TheNewestWholeCheckpointIsFoundAndTheDamagedOnesNamed) {
+  Learner learner(SmallConfig(), kObs, kAct);
+  const auto folder = dir_ / "run" / "checkpoints";
+  std::filesystem::create_directories(folder);
+  for (int samples : {100, 200, 300}) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "checkpoint-%012d.pt", samples);
+    learner.Save((folder / name).string(), "");
+  }
+  const std::string run = (dir_ / "run").string();
+  std::vector<std::string> skipped;
+  EXPECT_EQ(FindGoodCheckpoint(run, &skipped), (folder / "checkpoint-000000000300.pt").string());
+  EXPECT_TRUE(skipped.empty());
+  const auto newest = folder / "checkpoint-000000000300.pt";
+  std::filesystem::resize_file(newest, std::filesystem::file_size(newest) / 2);
+  std::ofstream(folder / "checkpoint-000000000200.pt", std::ios::app) << "x";  // one byte more
+  EXPECT_EQ(FindGoodCheckpoint(run, &skipped), (folder / "checkpoint-000000000100.pt").string());
+  ASSERT_EQ(skipped.size(), 2u);
+  EXPECT_NE(skipped[0].find("checkpoint-000000000300.pt: truncated"), std::string::npos);
+  EXPECT_NE(skipped[1].find("checkpoint-000000000200.pt: has extra bytes"), std::string::npos);
+  // A damaged file asked for by name is an error, not a silent substitute.
+  EXPECT_NE(ErrorOf([&] { FindGoodCheckpoint(newest.string()); }).find("truncated"),
+            std::string::npos);
+  std::filesystem::resize_file(folder / "checkpoint-000000000100.pt", 10);
+  skipped.clear();
+  EXPECT_EQ(FindGoodCheckpoint(run, &skipped), "");
+  EXPECT_EQ(skipped.size(), 3u);
+}
+
+TEST_F(LearnerTest, ACheckpointThatDoesNotFitFailsCleanlyAndKeepsTheOldOne) {
+  Learner learner(SmallConfig(), kObs, kAct);
+  const std::string path = (dir_ / "checkpoint.pt").string();
+  learner.Save(path, "first");
+  const auto before = std::filesystem::file_size(path);
+  // A file size limit below one checkpoint: the write fails with EFBIG (SIGXFSZ ignored, as the
+  // learner process does), like a full disk.
+  std::signal(SIGXFSZ, SIG_IGN);
+  rlimit saved{};
+  getrlimit(RLIMIT_FSIZE, &saved);
+  rlimit small = saved;
+  small.rlim_cur = 4096;
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  const std::string error = ErrorOf([&] { learner.Save(path, "second"); });
+  setrlimit(RLIMIT_FSIZE, &saved);
+  std::signal(SIGXFSZ, SIG_DFL);
+  EXPECT_NE(error.find("cannot write the checkpoint (File too large)"), std::string::npos) << error;
+  EXPECT_NE(error.find("previous checkpoints are untouched"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+  EXPECT_EQ(std::filesystem::file_size(path), before);
+  Learner restored(SmallConfig(), kObs, kAct);
+  EXPECT_EQ(restored.Load(path), "first");
 }
 
 TEST_F(LearnerTest, SnapshotCarriesPolicyAndStatistics) {
