@@ -159,10 +159,11 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
                                      config_.endpoints.max_message_bytes, &header, &offset);
   if (!v.ok()) return Reject(v, "control");
   if (!CheckRun(header, "control")) return;
-  // Under CURVE each kind comes from its role's keys only: a learner's key neither streams
-  // snapshots as an actor nor an actor's key joins a learner group.
+  // Under CURVE each kind comes from its role's keys only: a learner's key does not pose as an
+  // actor (hello, heartbeats) nor an actor's key join a learner group. A snapshot request may
+  // come from either: a resuming learner asks which version the actors run.
   const bool from_learner = header.kind() == v1::KIND_REPLICA_HELLO;
-  if (authenticator_ &&
+  if (authenticator_ && header.kind() != v1::KIND_SNAPSHOT_REQUEST &&
       Authenticator::RoleOf(message) != (from_learner ? kLearnerDomain : kActorDomain)) {
     return Reject(
         {wire::Rejection::kKind, std::string(from_learner ? "a learner's" : "an actor's") +

@@ -53,10 +53,12 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
 
 Learner::Accept Learner::Add(const v1::TrajectorySegment& segment) {
   if (segment.actions().shape(0) != config_.time_horizon) return Accept::kWrongLength;
-  if (segment.policy_version() < version_ - config_.max_policy_lag) {
+  if (segment.policy_version() < version_ - config_.max_policy_lag ||
+      segment.policy_version() > version_ + kMaxVersionAhead) {
     ++stale_dropped_;
     return Accept::kStale;
   }
+  newest_seen_ = std::max(newest_seen_, segment.policy_version());
   for (const auto& e : segment.episodes()) episodes_.Add(e);
   buffered_samples_ += config_.time_horizon;
   buffer_.push_back(segment);
@@ -341,13 +343,23 @@ UpdateStats Learner::Update() {
   }
   samples_ += group_samples;
   stats.samples = group_samples;
-  ++version_;
+  // Numbering continues above any version an actor already runs (this learner resumed from an
+  // older checkpoint); every replica takes the group's newest.
+  int64_t next = std::max(version_, newest_seen_);
+  if (group_ != nullptr) {
+    torch::Tensor negated = torch::tensor({-next}, torch::kInt64);
+    group_->Min(negated);
+    next = -negated[0].item<int64_t>();
+  }
+  version_ = next + 1;
   ++iterations_;
   buffer_.clear();
   buffered_samples_ = 0;
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }
+
+void Learner::ContinueNumberingFrom(int64_t version) { version_ = std::max(version_, version); }
 
 v1::PolicySnapshot Learner::Snapshot() { return MakeSnapshot(policy_, stats_, version_, samples_); }
 

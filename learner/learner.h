@@ -63,6 +63,13 @@ class Learner {
   // checkpoint or initial weights).
   void SyncFromRankZero();
 
+  // Policy versions never go backward, even when training resumes from an older checkpoint:
+  // the numbering continues above `version` (the newest one the broker or the actors hold).
+  // Segments from a version ahead of this learner's do the same at the next update (up to
+  // kMaxVersionAhead; further ahead they are dropped as impossible).
+  void ContinueNumberingFrom(int64_t version);
+  static constexpr int64_t kMaxVersionAhead = 100000;
+
   v1::PolicySnapshot Snapshot();
   // Writes the whole training state atomically, with its checksum (learner/checkpoint_file.h);
   // throws std::runtime_error when it cannot (a full disk), leaving other files untouched.
@@ -78,6 +85,8 @@ class Learner {
   void LoadWeights(const std::string& path);
 
   int64_t version() const { return version_; }
+  // The newest policy version seen in a segment (-1: none yet).
+  int64_t newest_seen_version() const { return newest_seen_; }
   int64_t samples() const { return samples_; }
   int64_t iterations() const { return iterations_; }
   int64_t stale_dropped() const { return stale_dropped_; }
@@ -115,6 +124,7 @@ class Learner {
   std::vector<v1::TrajectorySegment> buffer_;
   int64_t buffered_samples_ = 0;
   int64_t version_ = 0;
+  int64_t newest_seen_ = -1;  // the newest policy version in a segment
   int64_t samples_ = 0;
   int64_t iterations_ = 0;
   int64_t stale_dropped_ = 0;

@@ -205,6 +205,34 @@ std::optional<v1::ReplicaAssignment> JoinGroup(zmq::context_t& context,
   return std::nullopt;
 }
 
+// The policy version of the broker's cached snapshot (what actors run), or -1 when it has none or
+// does not answer within `seconds`.
+int64_t BrokerSnapshotVersion(zmq::context_t& context, const LearnerProcessConfig& config,
+                              const Endpoints& endpoints, double seconds) {
+  zmq::socket_t control = MakeSocket(context, zmq::socket_type::dealer, endpoints);
+  control.connect(endpoints.Connect(endpoints.control_port));
+  v1::SnapshotRequest request;
+  request.set_actor_id("learner");
+  request.set_have_version(-1);
+  const std::string message =
+      wire::Pack(v1::KIND_SNAPSHOT_REQUEST, config.run_id, "learner", request);
+  Send(control, zmq::buffer(message), zmq::send_flags::dontwait);
+  const auto start = Clock::now();
+  while (std::chrono::duration<double>(Clock::now() - start).count() < seconds) {
+    zmq::message_t reply;
+    if (!Receive(control, reply)) continue;
+    v1::Header header;
+    size_t offset = 0;
+    if (wire::ReadHeader(reply.data(), reply.size(), endpoints.max_message_bytes, &header, &offset)
+            .ok() &&
+        header.kind() == v1::KIND_SNAPSHOT) {
+      return header.policy_version();
+    }
+    return -1;
+  }
+  return -1;
+}
+
 }  // namespace
 
 ReplicaSettings ReadReplicaSettings(const ConfigSection& section) {
@@ -299,6 +327,16 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       std::fprintf(stderr, "learner: resumed from %s at policy v%lld, %lld samples\n", path.c_str(),
                    static_cast<long long>(learner.version()),
                    static_cast<long long>(learner.samples()));
+    }
+    // Actors may run a newer version than the checkpoint's (this learner was killed between
+    // checkpoints): the numbering continues above it, so that versions never go backward.
+    const int64_t running = BrokerSnapshotVersion(context, config, endpoints, 2.0);
+    if (running > learner.version()) {
+      std::fprintf(stderr,
+                   "learner: actors run policy v%lld, newer than the checkpoint's; numbering "
+                   "continues from there\n",
+                   static_cast<long long>(running));
+      learner.ContinueNumberingFrom(running);
     }
   } else if (!config.init_from.empty()) {
     std::string path = FindCheckpoint(config.init_from);

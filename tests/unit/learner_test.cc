@@ -130,6 +130,32 @@ TEST_F(LearnerTest, DropsSegmentsOlderThanMaxPolicyLag) {
 
 // Save then load restores parameters, optimiser state and counters: the next update of the
 // restored learner is bit-identical to the next update of the original.
+TEST_F(LearnerTest, VersionsNeverGoBackwardAfterResumingFromAnOlderCheckpoint) {
+  torch::manual_seed(1);
+  Learner learner(SmallConfig(), kObs, kAct);
+  Fill(learner, 1);
+  learner.Update();
+  EXPECT_EQ(learner.version(), 1);
+  // Resumed at v1 while the actors already run v7 (the learner died between checkpoints): their
+  // segments are welcome, and the next version is 8, not 2.
+  std::mt19937 rng(2);
+  while (!learner.Ready()) {
+    ASSERT_EQ(learner.Add(RandomSegment(rng, 7)), Learner::Accept::kAccepted);
+  }
+  EXPECT_EQ(learner.newest_seen_version(), 7);
+  learner.Update();
+  EXPECT_EQ(learner.version(), 8);
+  // What the broker says runs counts the same way; a lower number changes nothing.
+  learner.ContinueNumberingFrom(20);
+  EXPECT_EQ(learner.version(), 20);
+  learner.ContinueNumberingFrom(3);
+  EXPECT_EQ(learner.version(), 20);
+  // A version impossibly far ahead is dropped, not followed.
+  EXPECT_EQ(learner.Add(RandomSegment(rng, 20 + Learner::kMaxVersionAhead + 1)),
+            Learner::Accept::kStale);
+  EXPECT_EQ(learner.newest_seen_version(), 7);
+}
+
 TEST_F(LearnerTest, CheckpointRestoresTrainingStateExactly) {
   torch::manual_seed(1);
   Learner original(SmallConfig(), kObs, kAct);
