@@ -6,6 +6,7 @@
 //   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
 //   ragdoll report RUN [RUN ...] --out FILE.html   curves, evaluation and a GIF of runs, one page
 //   ragdoll keygen [NAME]                CURVE keys for authenticated, encrypted transport
+//   ragdoll verify RUN_OR_CHECKPOINT...  checkpoints whole, loadable, finite
 #include <signal.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -28,6 +29,7 @@
 #include "cli/render_command.h"
 #include "cli/report_command.h"
 #include "cli/trained_policy.h"
+#include "cli/verify_command.h"
 #include "common/config_section.h"
 #include "learner/learner.h"
 #include "learner/learner_process.h"
@@ -156,6 +158,7 @@ int main(int argc, char** argv) {
   std::function<int()> render = cli::AddRenderCommand(app, argc, argv);
   std::function<int()> report = cli::AddReportCommand(app);
   std::function<int()> keygen = cli::AddKeygenCommand(app);
+  std::function<int()> verify = cli::AddVerifyCommand(app);
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {
@@ -164,6 +167,7 @@ int main(int argc, char** argv) {
     if (int code = render(); code >= 0) return code;
     if (int code = report(); code >= 0) return code;
     if (int code = keygen(); code >= 0) return code;
+    if (int code = verify(); code >= 0) return code;
 
     if (*eval_cmd) {
       cli::TrainedPolicy policy = cli::LoadTrainedPolicy(eval_target);
