@@ -393,6 +393,15 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   };
   make_snapshot();
 
+  // The run's effective configuration beside its checkpoints, as `ragdoll train` writes it, so
+  // that eval, render and verify work on a run whose roles were started one by one.
+  if (leader && !config.config_text.empty() &&
+      !fs::exists(fs::path(config.run_dir) / "config.yaml")) {
+    const fs::path path = fs::path(config.run_dir) / "config.yaml";
+    std::ofstream(path.string() + ".tmp") << config.config_text;
+    std::error_code error;
+    fs::rename(path.string() + ".tmp", path, error);
+  }
   const fs::path csv_path = fs::path(config.run_dir) / "metrics.csv";
   bool new_csv = leader && !fs::exists(csv_path);
   std::ofstream csv;
