@@ -1,10 +1,36 @@
 #include "common/wire.h"
 
+#include <google/protobuf/stubs/logging.h>
+
+#include <atomic>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 namespace ragdoll::wire {
 namespace {
+
+// protobuf logs an ERROR line for every string field with invalid UTF-8 it parses: at a network
+// edge any sender could flood the logs with them. Those messages are rejected and counted by the
+// callers; of protobuf's own lines the log keeps at most one a minute, with the count of the rest.
+void RateLimitedProtobufLog(google::protobuf::LogLevel level, const char* file, int line,
+                            const std::string& message) {
+  static std::atomic<int64_t> last_ns{0}, suppressed{0};
+  const int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                          std::chrono::steady_clock::now().time_since_epoch())
+                          .count();
+  const int64_t last = last_ns.load();
+  if (level != google::protobuf::LOGLEVEL_FATAL && last != 0 && now - last < 60'000'000'000) {
+    suppressed.fetch_add(1);
+    return;
+  }
+  last_ns.store(now);
+  std::fprintf(stderr, "[protobuf %s:%d] %s (%lld similar lines in the last minute not shown)\n",
+               file, line, message.c_str(), static_cast<long long>(suppressed.exchange(0)));
+}
+[[maybe_unused]] const bool kProtobufLogRateLimited =
+    (google::protobuf::SetLogHandler(&RateLimitedProtobufLog), true);
 
 Verdict Reject(Rejection r, std::string detail) { return Verdict{r, std::move(detail)}; }
 

@@ -207,7 +207,7 @@ MotionClip ParseMotion(const std::string& text, const std::string& origin) {
   json doc;
   try {
     doc = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, and numbers out of range (1e999)
     Fail(origin, std::string("not valid JSON: ") + e.what());
   }
   if (!doc.is_object()) Fail(origin, "expected a JSON object");

@@ -596,13 +596,23 @@ TEST(ProjectFormat, RejectsMalformedClipsNamingFileFrameAndField) {
   EXPECT_THAT(ParseError("[1, 2]", "tiny.json"), HasSubstr("tiny.json: expected a JSON object"));
 }
 
-// Disabled until ParseProjectClip (actor/sim/motion_io.cc) checks the type of "format": today
-// doc.value("format", "") throws nlohmann's type_error 302 ("type must be string, but is number"),
-// which names neither the file nor the field, instead of a ConfigError.
+// nlohmann's own type_error ("type must be string, but is number") would name neither the file
+// nor the field.
 TEST(ProjectFormat, AFormatFieldOfTheWrongTypeIsAConfigError) {
   const std::string tiny = kTinyClip;
   EXPECT_THAT(ParseError(Replace(tiny, "\"ragdoll-clip\"", "1"), "tiny.json"),
               HasSubstr("tiny.json: format"));
+}
+
+// Found by fuzz_motion: a number beyond double's range made nlohmann throw out_of_range, which
+// is not a ConfigError, so callers that catch ConfigError let it through.
+TEST(ProjectFormat, ANumberOutOfRangeIsAConfigError) {
+  const std::string tiny = kTinyClip;
+  EXPECT_THAT(
+      ParseError(Replace(tiny, "\"ragdoll-clip\"", "0.9e8079"), "tiny.json"),
+      HasSubstr("tiny.json: not valid JSON: [json.exception.out_of_range.406] number overflow"));
+  EXPECT_THAT(ParseError("{\"Frames\": [[1e400]]}", "big.txt"),
+              HasSubstr("big.txt: not valid JSON"));
 }
 
 // A folder of its own under the system's temporary directory, removed afterwards.

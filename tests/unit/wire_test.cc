@@ -255,6 +255,24 @@ TEST(WireRejects, MalformedHeaderBytes) {
   EXPECT_STREQ(RejectionName(v.rejection), "malformed");
 }
 
+// Found by fuzz_wire: protobuf logs a line for every string with invalid UTF-8 it parses, so a
+// sender could flood the log of whoever reads its messages. The messages are rejected; the log
+// keeps at most one such line a minute.
+TEST(WireRejects, InvalidUtf8IsRejectedWithoutFloodingTheLog) {
+  v1::Header header = ValidHeader(0);
+  header.set_run_id("ok");
+  std::string message = Frame(header, "");
+  const size_t at = message.find("ok");
+  ASSERT_NE(at, std::string::npos);
+  message[at] = '\xff';  // run_id is no longer UTF-8
+  ::testing::internal::CaptureStderr();
+  for (int i = 0; i < 1000; ++i) EXPECT_EQ(Read(message).rejection, Rejection::kMalformed);
+  const std::string log = ::testing::internal::GetCapturedStderr();
+  int lines = 0;
+  for (char c : log) lines += c == '\n';
+  EXPECT_LE(lines, 1) << log;
+}
+
 TEST(WireRejects, PayloadThatDoesNotParse) {
   const std::string garbage("\xff\xff\xff", 3);
   v1::Header header = ValidHeader(garbage.size());

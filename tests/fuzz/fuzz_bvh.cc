@@ -1,0 +1,15 @@
+// libFuzzer target: the BVH parser on arbitrary text. Bad files must end in ConfigError.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "actor/sim/bvh.h"
+#include "common/config_section.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  try {
+    ragdoll::sim::ParseBvh(std::string(reinterpret_cast<const char*>(data), size), "fuzz.bvh");
+  } catch (const ragdoll::ConfigError&) {
+  }
+  return 0;
+}

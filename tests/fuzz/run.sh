@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer target (tests/fuzz/, built with `cmake --preset fuzz && cmake --build
+# --preset fuzz`) for SECONDS each on a fresh corpus seeded with real inputs: the messages the
+# system sends, BVH files written by `ragdoll motion export` (three namings, two unit systems),
+# the shipped clips and DeepMimic's motion files, every shipped and test config. Prints
+# executions, executions/s and coverage per target; fails on any crash, leak or sanitizer report,
+# keeping the reproducer under OUT/artifacts.
+#   tests/fuzz/run.sh [SECONDS=60] [OUT=build-fuzz/fuzz-run] [TARGET...]
+set -u
+repo=$(cd "$(dirname "$0")/../.." && pwd)
+seconds=${1:-60} out=${2:-$repo/build-fuzz/fuzz-run}
+shift 2 2>/dev/null || shift $#
+targets=("$@"); [ ${#targets[@]} -gt 0 ] || targets=(wire bvh motion config)
+bin=$repo/build-fuzz/tests/fuzz
+ragdoll=${RAGDOLL:-$repo/build/ragdoll}
+rm -rf "$out"; mkdir -p "$out/artifacts"
+
+seeds() {  # target -> its seed folder
+  local d=$out/seeds/$1; mkdir -p "$d"
+  case $1 in
+    wire) "$bin/fuzz_wire_seeds" "$d" ;;
+    bvh)
+      if [ -x "$ragdoll" ]; then
+        for clip in walk squat; do
+          "$ragdoll" motion export "$repo/assets/motions/$clip.json" --out "$d/$clip-cmu.bvh" --naming cmu --units cm > /dev/null 2>&1
+          "$ragdoll" motion export "$repo/assets/motions/$clip.json" --out "$d/$clip-mixamo.bvh" --naming mixamo --up y > /dev/null 2>&1
+          "$ragdoll" motion export "$repo/assets/motions/$clip.json" --out "$d/$clip-ragdoll.bvh" > /dev/null 2>&1
+        done
+      fi
+      ;;
+    motion)
+      cp "$repo"/assets/motions/*.json "$d/"
+      cp "$repo"/../shared/data/deepmimic/motions/*.txt "$d/" 2>/dev/null || true
+      ;;
+    config) cp "$repo"/configs/*.yaml "$repo"/tests/data/*.yaml "$repo"/tests/e2e/configs/*.yaml "$d/" ;;
+  esac
+  echo "$d"
+}
+
+failed=0
+printf '%-8s %12s %10s %8s %8s %s\n' target executions "exec/s" cov ft result
+for t in "${targets[@]}"; do
+  seed_dir=$(seeds "$t")
+  corpus=$out/corpus/$t; mkdir -p "$corpus"
+  log=$out/$t.log
+  "$bin/fuzz_$t" "$corpus" "$seed_dir" -max_total_time="$seconds" -max_len=131072 -timeout=10 \
+    -rss_limit_mb=4096 -print_final_stats=1 -artifact_prefix="$out/artifacts/$t-" > "$log" 2>&1
+  code=$?
+  runs=$(awk '/stat::number_of_executed_units/ { print $NF }' "$log")
+  line=$(grep -E '^#[0-9]+' "$log" | tail -n 1)
+  cov=$(echo "$line" | grep -o 'cov: [0-9]*' | awk '{print $2}')
+  ft=$(echo "$line" | grep -o 'ft: [0-9]*' | awk '{print $2}')
+  rate=$(( ${runs:-0} / (seconds > 0 ? seconds : 1) ))
+  result=ok
+  if [ $code -ne 0 ] || grep -q "ERROR: AddressSanitizer\|runtime error:\|ERROR: libFuzzer" "$log"; then
+    result="CRASH (exit $code): $(ls "$out/artifacts" | grep "^$t-" | head -n 1)"
+    failed=1
+  fi
+  printf '%-8s %12s %10s %8s %8s %s\n' "$t" "${runs:-?}" "$rate" "${cov:-?}" "${ft:-?}" "$result"
+  [ "$result" = ok ] || grep -m 5 -A 12 "ERROR\|runtime error" "$log"
+done
+exit $failed
