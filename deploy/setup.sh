@@ -17,8 +17,8 @@ packages=(
   libzmq3-dev cppzmq-dev libprotobuf-dev protobuf-compiler prometheus-cpp-dev libsodium-dev
   # config, command line, JSON
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
-  # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  # tests and benchmarks; fuzzing with clang's libFuzzer, ASan and UBSan (tests/fuzz/)
+  libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev
   # rendering videos headless: GLFW + Mesa under Xvfb, frames encoded by ffmpeg
   libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg
   # integration tests: a real Prometheus server, queried over HTTP from the shell

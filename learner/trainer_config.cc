@@ -1,6 +1,7 @@
 #include "learner/trainer_config.h"
 
 #include <cmath>
+#include <limits>
 
 #include "common/config_section.h"
 
@@ -19,13 +20,24 @@ double Fraction(const ConfigSection& s, const std::string& key, double fallback)
   return v;
 }
 
-int64_t AtLeast(const ConfigSection& s, const std::string& key, int64_t fallback, int64_t low) {
-  // Accept 3e7 as well as 30000000: YAML users write both.
+// A whole number in [low, high]. Accepts 3e7 as well as 30000000: YAML users write both. The
+// default ceiling, 1e15, keeps every such count exact in a double and far from int64's limit
+// (fuzz_config found 4e36 cast to int64: undefined behaviour).
+int64_t AtLeast(const ConfigSection& s, const std::string& key, int64_t fallback, int64_t low,
+                int64_t high = 1'000'000'000'000'000) {
   double v = s.Get<double>(key, static_cast<double>(fallback));
-  if (!std::isfinite(v) || v < low || v != std::floor(v)) {
+  if (!std::isfinite(v) || v < static_cast<double>(low) || v != std::floor(v)) {
     s.Fail(key, "must be a whole number of at least " + std::to_string(low));
   }
+  if (v > static_cast<double>(high)) {
+    s.Fail(key, "must be at most " + std::to_string(high));
+  }
   return static_cast<int64_t>(v);
+}
+
+// The same for counts kept in an int.
+int IntAtLeast(const ConfigSection& s, const std::string& key, int fallback, int low) {
+  return static_cast<int>(AtLeast(s, key, fallback, low, std::numeric_limits<int>::max()));
 }
 
 }  // namespace
@@ -55,7 +67,7 @@ TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
   if (!(c.beta >= 0)) h.Fail("beta", "must be zero or more");
   c.epsilon = PositiveNumber(h, "epsilon", c.epsilon);
   c.lambd = Fraction(h, "lambd", c.lambd);
-  c.num_epoch = static_cast<int>(AtLeast(h, "num_epoch", c.num_epoch, 1));
+  c.num_epoch = IntAtLeast(h, "num_epoch", c.num_epoch, 1);
   c.max_grad_norm = PositiveNumber(h, "max_grad_norm", c.max_grad_norm);
   c.value_coef = PositiveNumber(h, "value_coef", c.value_coef);
   c.clip_value_loss = h.Get<bool>("clip_value_loss", c.clip_value_loss);
@@ -63,8 +75,8 @@ TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
 
   ConfigSection n = s.Section("network_settings");
   c.normalize = n.Get<bool>("normalize", c.normalize);
-  int units = static_cast<int>(AtLeast(n, "hidden_units", 512, 1));
-  int layers = static_cast<int>(AtLeast(n, "num_layers", 2, 1));
+  int units = IntAtLeast(n, "hidden_units", 512, 1);
+  int layers = IntAtLeast(n, "num_layers", 2, 1);
   c.network.hidden_units.assign(layers, units);
   c.network.activation = n.Get<std::string>("activation", c.network.activation);
   if (c.network.activation != "tanh" && c.network.activation != "relu" &&
@@ -84,11 +96,11 @@ TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
   rewards.Finish();
 
   c.max_steps = AtLeast(s, "max_steps", c.max_steps, 1);
-  c.time_horizon = static_cast<int>(AtLeast(s, "time_horizon", c.time_horizon, 1));
+  c.time_horizon = IntAtLeast(s, "time_horizon", c.time_horizon, 1);
   c.checkpoint_interval = AtLeast(s, "checkpoint_interval", c.checkpoint_interval, 1);
-  c.keep_checkpoints = static_cast<int>(AtLeast(s, "keep_checkpoints", c.keep_checkpoints, 1));
-  c.max_policy_lag = static_cast<int>(AtLeast(s, "max_policy_lag", c.max_policy_lag, 0));
-  c.threads = static_cast<int>(AtLeast(s, "threads", c.threads, 1));
+  c.keep_checkpoints = IntAtLeast(s, "keep_checkpoints", c.keep_checkpoints, 1);
+  c.max_policy_lag = IntAtLeast(s, "max_policy_lag", c.max_policy_lag, 0);
+  c.threads = IntAtLeast(s, "threads", c.threads, 1);
   c.seed = static_cast<uint64_t>(AtLeast(s, "seed", static_cast<int64_t>(c.seed), 0));
   s.Finish();
   return c;

@@ -37,9 +37,10 @@ seeds() {  # target -> its seed folder
   echo "$d"
 }
 
-failed=0
-printf '%-8s %12s %10s %8s %8s %s\n' target executions "exec/s" cov ft result
-for t in "${targets[@]}"; do
+# One target per core at a time; each gets SECONDS of wall time.
+jobs=${FUZZ_JOBS:-$(nproc)}
+fuzz() {  # target: runs it, then writes its row to OUT/TARGET.row
+  local t=$1 seed_dir corpus log code runs line cov ft rate result
   seed_dir=$(seeds "$t")
   corpus=$out/corpus/$t; mkdir -p "$corpus"
   log=$out/$t.log
@@ -54,9 +55,23 @@ for t in "${targets[@]}"; do
   result=ok
   if [ $code -ne 0 ] || grep -q "ERROR: AddressSanitizer\|runtime error:\|ERROR: libFuzzer" "$log"; then
     result="CRASH (exit $code): $(ls "$out/artifacts" | grep "^$t-" | head -n 1)"
-    failed=1
   fi
-  printf '%-8s %12s %10s %8s %8s %s\n' "$t" "${runs:-?}" "$rate" "${cov:-?}" "${ft:-?}" "$result"
-  [ "$result" = ok ] || grep -m 5 -A 12 "ERROR\|runtime error" "$log"
+  printf '%-8s %12s %10s %8s %8s %s\n' "$t" "${runs:-?}" "$rate" "${cov:-?}" "${ft:-?}" "$result" > "$out/$t.row"
+}
+running=0
+for t in "${targets[@]}"; do
+  fuzz "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$jobs" ]; then wait -n; running=$((running - 1)); fi
+done
+wait
+failed=0
+printf '%-8s %12s %10s %8s %8s %s\n' target executions "exec/s" cov ft result
+for t in "${targets[@]}"; do
+  cat "$out/$t.row"
+  if ! grep -q " ok$" "$out/$t.row"; then
+    failed=1
+    grep -m 5 -A 12 "ERROR\|runtime error" "$out/$t.log"
+  fi
 done
 exit $failed

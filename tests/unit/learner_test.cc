@@ -633,6 +633,21 @@ TEST(TrainerConfig, ReadsValueNormalisationAndFixedNoise) {
                ConfigError);
 }
 
+// Found by fuzz_config: `max_steps: 4e36` was cast to int64 (undefined behaviour).
+TEST(TrainerConfig, CountsBeyondTheirTypeAreRefusedNamingTheKey) {
+  auto error = [](const std::string& yaml) {
+    return ErrorOf([&] { ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml")); });
+  };
+  EXPECT_THAT(error("max_steps: 4e36"),
+              ::testing::HasSubstr("max_steps: must be at most 1000000000000000"));
+  EXPECT_THAT(error("time_horizon: 1e10"),
+              ::testing::HasSubstr("time_horizon: must be at most 2147483647"));
+  EXPECT_THAT(error("hyperparameters: {num_epoch: 3e9}"),
+              ::testing::HasSubstr("num_epoch: must be at most"));
+  EXPECT_EQ(ReadTrainerConfig(ConfigSection::FromString("max_steps: 3.0e7", "t.yaml")).max_steps,
+            30000000);
+}
+
 TEST(TrainerConfig, ReadsTheLearningRateSchedule) {
   auto read = [](const std::string& yaml) {
     return ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml"));
