@@ -11,7 +11,11 @@
 #include <stdexcept>
 #include <thread>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <csignal>
 
@@ -490,9 +494,21 @@ ReplicaGroupConfig TestGroup(int rank, int port) {
   return g;
 }
 
+// A port the system reports free right now (bound to port 0, then released). A fixed range or an
+// offset from one can collide with concurrent tests and their connections.
 int FreePort() {
-  // Ports of this process's range, so concurrent test processes do not collide.
-  return 20000 + static_cast<int>(::getpid() % 20000);
+  int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = 0;
+  socklen_t length = sizeof(address);
+  if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length) != 0) {
+    throw std::runtime_error("no free port");
+  }
+  ::close(fd);
+  return ntohs(address.sin_port);
 }
 
 TEST(LearnerReplicas, TwoReplicasStayIdenticalAndMatchOneLearnerOnTheUnion) {
@@ -579,7 +595,7 @@ TEST(LearnerReplicas, TwoReplicasStayIdenticalAndMatchOneLearnerOnTheUnion) {
 }
 
 TEST(LearnerReplicas, OneStoppingReplicaStopsThemAll) {
-  const int port = FreePort() + 1;
+  const int port = FreePort();
   std::vector<int> agreed(2, -1);
   auto replica = [&](int rank) {
     ReplicaGroup group(TestGroup(rank, port));
@@ -594,7 +610,7 @@ TEST(LearnerReplicas, OneStoppingReplicaStopsThemAll) {
 }
 
 TEST(LearnerReplicas, AReplicaThatLeavesBreaksTheGroupAtOnce) {
-  const int port = FreePort() + 2;
+  const int port = FreePort();
   std::string error;
   auto zero = std::thread([&] {
     ReplicaGroup group(TestGroup(0, port));
