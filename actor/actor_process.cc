@@ -20,56 +20,6 @@ double Since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-// Counts the connections a socket makes: the first, then one per reconnection (broker restart,
-// network loss), and says why a handshake with the broker fails (at most every 30 s).
-class ConnectionMonitor : public zmq::monitor_t {
- public:
-  ConnectionMonitor(zmq::socket_t& socket, const std::string& name) : name_(name) {
-    init(socket, "inproc://monitor-" + name,
-         ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED | ZMQ_EVENT_HANDSHAKE_FAILED_AUTH |
-             ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL);
-  }
-  void Poll() {
-    while (check_event(0)) {
-    }
-  }
-  int64_t connects() const { return connects_; }
-  bool connected() const { return connected_; }
-
- private:
-  void on_event_connected(const zmq_event_t&, const char*) override {
-    ++connects_;
-    connected_ = true;
-  }
-  void on_event_disconnected(const zmq_event_t&, const char*) override { connected_ = false; }
-  void on_event_handshake_failed_auth(const zmq_event_t& event, const char*) override {
-    Warn("the broker refused this actor's key (ZAP status " + std::to_string(event.value) +
-         "): its public certificate must be in the broker's keys folder, under actors/");
-  }
-  void on_event_handshake_failed_protocol(const zmq_event_t& event, const char*) override {
-    Warn(event.value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH
-             ? "the broker and this actor disagree on security: one uses CURVE keys, the other "
-               "plaintext (give every role the same --keys folder)"
-             : "the handshake with the broker failed (protocol error " +
-                   std::to_string(event.value) + "): is KEYS/broker.key this broker's key?");
-  }
-  void on_event_handshake_failed_no_detail(const zmq_event_t&, const char*) override {
-    Warn(
-        "the handshake with the broker failed: the broker and this actor disagree on security "
-        "(CURVE keys or plaintext), or on the broker's key");
-  }
-  void Warn(const std::string& message) {
-    auto now = Clock::now();
-    if (warned_ != Clock::time_point{} && now - warned_ < std::chrono::seconds(30)) return;
-    warned_ = now;
-    std::fprintf(stderr, "%s: %s\n", name_.c_str(), message.c_str());
-  }
-  std::string name_;
-  Clock::time_point warned_{};
-  int64_t connects_ = 0;
-  bool connected_ = false;
-};
-
 struct ActorMetrics {
   explicit ActorMetrics(MetricsEndpoint& m)
       : samples(m.Counter("ragdoll_actor_samples_total", "Environment steps simulated")),
@@ -110,7 +60,7 @@ int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoin
   metrics.environments.Set(config.environments);
   zmq::context_t context(1);
   zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
-  ConnectionMonitor monitor(push, config.actor_id + "-push");
+  ConnectionMonitor monitor(push, config.actor_id + "-push", "actor");
   zmq::socket_t control = MakeSocket(context, zmq::socket_type::dealer, endpoints);
   zmq::socket_t snapshots = MakeSocket(context, zmq::socket_type::sub, endpoints, 0);
   control.set(zmq::sockopt::routing_id, config.actor_id);

@@ -183,7 +183,10 @@ void Broker::HandleControl(zmq::message_t& identity, zmq::message_t& message) {
     }
     return HandleReplicaHello(identity.to_string(), hello);
   }
-  last_seen_[header.sender()] = Clock::now();
+  // A learner asking for the snapshot is not an actor.
+  if (!authenticator_ || Authenticator::RoleOf(message) == kActorDomain) {
+    last_seen_[header.sender()] = Clock::now();
+  }
   switch (header.kind()) {
     case v1::KIND_HELLO:
       std::fprintf(stderr, "broker: actor %s connected\n", header.sender().c_str());

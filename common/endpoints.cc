@@ -1,6 +1,7 @@
 #include "common/endpoints.h"
 
 #include <cerrno>
+#include <cstdio>
 #include <stdexcept>
 
 #include "common/config_section.h"
@@ -80,6 +81,57 @@ bool Send(zmq::socket_t& socket, zmq::const_buffer data, zmq::send_flags flags) 
     if (e.num() == EINTR) return false;
     throw;
   }
+}
+
+ConnectionMonitor::ConnectionMonitor(zmq::socket_t& socket, const std::string& name,
+                                     const std::string& role)
+    : name_(name), role_(role) {
+  init(socket, "inproc://monitor-" + name,
+       ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED | ZMQ_EVENT_HANDSHAKE_FAILED_AUTH |
+           ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL | ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL);
+}
+
+void ConnectionMonitor::Poll() {
+  while (check_event(0)) {
+  }
+}
+
+void ConnectionMonitor::on_event_connected(const zmq_event_t&, const char*) {
+  ++connects_;
+  connected_ = true;
+}
+
+void ConnectionMonitor::on_event_disconnected(const zmq_event_t&, const char*) {
+  connected_ = false;
+}
+
+void ConnectionMonitor::on_event_handshake_failed_auth(const zmq_event_t& event, const char*) {
+  Warn("the broker refused this " + role_ + "'s key (ZAP status " + std::to_string(event.value) +
+       "): its public certificate must be in the broker's keys folder, under " + role_ + "s/");
+}
+
+void ConnectionMonitor::on_event_handshake_failed_protocol(const zmq_event_t& event, const char*) {
+  Warn(event.value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH
+           ? "the broker and this " + role_ +
+                 " disagree on security: one uses CURVE keys, the other plaintext (give every "
+                 "role the same --keys folder)"
+           : "the handshake with the broker failed (protocol error " + std::to_string(event.value) +
+                 "): is KEYS/broker.key this broker's key?");
+}
+
+void ConnectionMonitor::on_event_handshake_failed_no_detail(const zmq_event_t&, const char*) {
+  Warn("the handshake with the broker failed: the broker and this " + role_ +
+       " disagree on security (CURVE keys or plaintext), or on the broker's key");
+}
+
+void ConnectionMonitor::Warn(const std::string& message) {
+  const auto now = std::chrono::steady_clock::now();
+  if (warned_ != std::chrono::steady_clock::time_point{} &&
+      now - warned_ < std::chrono::seconds(30)) {
+    return;
+  }
+  warned_ = now;
+  std::fprintf(stderr, "%s: %s\n", name_.c_str(), message.c_str());
 }
 
 }  // namespace ragdoll

@@ -4,6 +4,7 @@
 
 #include <zmq.hpp>
 
+#include <chrono>
 #include <cstdint>
 #include <string>
 
@@ -54,5 +55,30 @@ bool Receive(zmq::socket_t& socket, zmq::message_t& message,
              zmq::recv_flags flags = zmq::recv_flags::none);
 bool Send(zmq::socket_t& socket, zmq::const_buffer data,
           zmq::send_flags flags = zmq::send_flags::none);
+
+// Watches a client socket's connection to the broker: counts connections (the first, then one
+// per reconnection after a broker restart or network loss) and says in the log, at most every
+// 30 s, why a handshake fails (a refused key, CURVE on one side only, another broker's key).
+class ConnectionMonitor : public zmq::monitor_t {
+ public:
+  // `name` prefixes the log lines; `role` ("actor", "learner") names the keys folder to fix.
+  ConnectionMonitor(zmq::socket_t& socket, const std::string& name, const std::string& role);
+  // Reads the events that arrived; call it from the socket's own thread.
+  void Poll();
+  int64_t connects() const { return connects_; }
+  bool connected() const { return connected_; }
+
+ private:
+  void on_event_connected(const zmq_event_t&, const char*) override;
+  void on_event_disconnected(const zmq_event_t&, const char*) override;
+  void on_event_handshake_failed_auth(const zmq_event_t& event, const char*) override;
+  void on_event_handshake_failed_protocol(const zmq_event_t& event, const char*) override;
+  void on_event_handshake_failed_no_detail(const zmq_event_t&, const char*) override;
+  void Warn(const std::string& message);
+  std::string name_, role_;
+  std::chrono::steady_clock::time_point warned_{};
+  int64_t connects_ = 0;
+  bool connected_ = false;
+};
 
 }  // namespace ragdoll

@@ -378,6 +378,8 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   // only rank 0 pushes snapshots.
   zmq::socket_t pull = MakeSocket(context, zmq::socket_type::pull, endpoints);
   zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
+  ConnectionMonitor monitor(pull, config.replica_id.empty() ? "learner" : config.replica_id,
+                            "learner");
   pull.connect(endpoints.Connect(endpoints.learner_port));
   if (leader) push.connect(endpoints.Connect(endpoints.learner_snapshot_port));
 
@@ -440,6 +442,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     zmq::message_t message;
     const auto wait_start = Clock::now();
     const bool received = Receive(pull, message);
+    monitor.Poll();  // a refused handshake is said in the log
     const double waited = std::chrono::duration<double>(Clock::now() - wait_start).count();
     idle_seconds += waited;
     metrics.idle_seconds.Increment(waited);

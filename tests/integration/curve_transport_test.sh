@@ -52,6 +52,12 @@ intruder() {  # name, then the actor's options
 intruder unknown 7 $((port + 40)) --keys "$work/rogue" --key "$work/rogue/rogue.key_secret"
 intruder plaintext 8 $((port + 41))
 intruder learner-key 9 $((port + 42)) --keys "$work/keys" --key "$work/keys/learner.key_secret"
+# And a learner with a key of its own: it must not receive the actors' segments.
+"$ragdoll" keygen rogue-learner --role learner --keys "$work/rogue" > /dev/null || fail "keygen rogue learner"
+"$ragdoll" learner "$config" --run-id "$run" --port-base "$port" --run-dir "$work/rogue-run" \
+  --metrics-port $((port + 43)) --keys "$work/rogue" --key "$work/rogue/rogue-learner.key_secret" \
+  > "$work/rogue-learner.log" 2>&1 &
+pids+=($!)
 broker=$((port + 11))
 refusals() {  # reason regex: the sum of those refusal counters
   curl -sf "http://127.0.0.1:$broker/metrics" |
@@ -70,11 +76,15 @@ sleep 8
 for m in $((port + 40)) $((port + 41)); do
   [ "$(metric $m ragdoll_actor_snapshot_version)" = "-1" ] || fail "an intruder got a policy"
 done
-for m in $((port + 40)) $((port + 41)) $((port + 42)); do
-  [ "$(metric $m ragdoll_actor_segments_sent_total)" = "0" ] || fail "an intruder sent segments"
-done
+# (An actor counts a segment as sent once ZeroMQ queues it; the broker is what must not take it.)
+[ "$(metric $broker ragdoll_broker_actors_connected)" = "1" ] || fail "the broker hears an intruder as an actor"
+[ "$(metric $broker ragdoll_broker_messages_rejected_total 'socket="trajectories"')" = "0" ] ||
+  fail "intruders' segments reached the broker"
 grep -q "the broker refused this actor's key" "$work/unknown.log" || fail "no reason in the log"
 grep -q "disagree on security" "$work/plaintext.log" || fail "no reason in the plaintext log"
+grep -q "the broker refused this learner's key" "$work/rogue-learner.log" || fail "no reason in the rogue learner's log"
+[ "$(metric $((port + 43)) ragdoll_ppo_updates_total)" = "0" ] ||
+  fail "the rogue learner trained on the actors' segments"
 grep -q "disagree on security\|refused this actor's key" "$work/learner-key.log" ||
   fail "no reason in the log of the actor holding the learner's key"
 [ "$(grep -c '^\[' "$work/train.log")" -gt "$before" ] || fail "training stopped"
