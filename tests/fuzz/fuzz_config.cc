@@ -15,8 +15,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace ragdoll;
   try {
-    ConfigSection root =
-        ConfigSection::FromString(std::string(reinterpret_cast<const char*>(data), size), "fuzz.yaml");
+    ConfigSection root = ConfigSection::FromString(
+        std::string(reinterpret_cast<const char*>(data), size), "fuzz.yaml");
     try {
       learner::ReadTrainerConfig(root.Section("trainer"));
     } catch (const ConfigError&) {

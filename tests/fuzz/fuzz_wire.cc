@@ -16,8 +16,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     // The sizes the shipped humanoid uses, and sizes taken from the segment itself.
     wire::CheckSegment(segment, 197, 36);
     if (segment.observations().shape_size() == 2 && segment.actions().shape_size() == 2) {
-      wire::Verdict v = wire::CheckSegment(segment, static_cast<int>(segment.observations().shape(1)),
-                                           static_cast<int>(segment.actions().shape(1)));
+      wire::Verdict v =
+          wire::CheckSegment(segment, static_cast<int>(segment.observations().shape(1)),
+                             static_cast<int>(segment.actions().shape(1)));
       if (v.ok()) {
         // A checked segment's numbers are readable in full.
         volatile float sink = 0;
