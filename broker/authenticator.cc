@@ -88,7 +88,7 @@ void Authenticator::Watch(zmq::socket_t& socket, const std::string& name) {
 
 void Authenticator::ReloadIfChanged() {
   const auto now = Clock::now();
-  if (last_check_ != Clock::time_point{} && now - last_check_ < std::chrono::seconds(1)) return;
+  if (loaded_ && now - last_check_ < std::chrono::seconds(1)) return;
   last_check_ = now;
   const fs::path folders[2] = {fs::path(keys_dir_) / "actors", fs::path(keys_dir_) / "learners"};
   std::array<fs::file_time_type, 2> times{};
@@ -96,7 +96,7 @@ void Authenticator::ReloadIfChanged() {
     std::error_code error;
     times[i] = fs::last_write_time(folders[i], error);
   }
-  const bool first = names_.empty() && keys_.actors.empty() && keys_.learners.empty();
+  const bool first = !loaded_;
   if (!first && times == folder_times_) return;
   Keys keys;
   std::map<std::string, std::string> names;
@@ -120,6 +120,7 @@ void Authenticator::ReloadIfChanged() {
   keys_ = std::move(keys);
   names_ = std::move(names);
   folder_times_ = times;
+  loaded_ = true;
 }
 
 void Authenticator::Refuse(Reason reason, const std::string& detail) {
@@ -185,11 +186,14 @@ void Authenticator::HandleRequest() {
   }
 }
 
-void Authenticator::Poll() {
+void Authenticator::HandleRequests() {
   for (int i = 0; i < 64; ++i) {
     if ((zap_.get(zmq::sockopt::events) & ZMQ_POLLIN) == 0) break;
     HandleRequest();
   }
+}
+
+void Authenticator::ReadWatches() {
   for (auto& w : watchers_) w->Poll();
 }
 

@@ -40,8 +40,10 @@ class Authenticator {
 
   // The ZAP socket, for the broker's poll loop.
   zmq::socket_t& socket() { return zap_; }
-  // Answers the waiting ZAP requests and reads the socket watches.
-  void Poll();
+  // Answers the waiting ZAP requests (when the socket polls readable).
+  void HandleRequests();
+  // Reads the socket watches' events (often enough: every half second).
+  void ReadWatches();
 
   int64_t accepted() const;
   int64_t refused(Reason reason) const;
@@ -63,6 +65,7 @@ class Authenticator {
   Keys keys_;
   std::map<std::string, std::string> names_;  // key -> certificate name, for the log
   std::array<std::filesystem::file_time_type, 2> folder_times_{};
+  bool loaded_ = false;  // the folders were read once (a bad key then stops start-up)
   std::chrono::steady_clock::time_point last_check_{};
   std::array<std::chrono::steady_clock::time_point, kReasons> last_logged_{};
   prometheus::Counter* accepted_[2] = {nullptr, nullptr};  // actor, learner

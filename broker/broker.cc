@@ -316,9 +316,10 @@ void Broker::PollOnce(int timeout_ms) {
       HandleSnapshot(message);
     }
   }
-  if (authenticator_) authenticator_->Poll();
+  if (authenticator_ && (items[4].revents & ZMQ_POLLIN)) authenticator_->HandleRequests();
   if (Clock::now() - last_gauges_ > std::chrono::milliseconds(500)) {
     last_gauges_ = Clock::now();
+    if (authenticator_) authenticator_->ReadWatches();
     metrics_->actors.Set(ActorsAlive());
   }
 }

@@ -18,12 +18,8 @@ struct KeygenOptions {
 
 // Writes NAME's pair where its role finds it; returns 0, or 1 with a message on stderr.
 int Generate(const KeygenOptions& o, const std::string& name, const std::string& role) {
-  const fs::path dir(o.keys);
-  const fs::path secret = dir / (name + ".key_secret");
-  // The broker's public key is read by every role from KEYS/broker.key; the others' public
-  // keys go where the broker looks for the keys it accepts.
-  const fs::path public_key =
-      role == "broker" ? dir / (name + ".key") : dir / (role + "s") / (name + ".key");
+  const KeyPaths paths = KeyPathsOf(o.keys, name, role);
+  const fs::path secret = paths.secret_key, public_key = paths.public_key;
   if (!o.force && (fs::exists(secret) || fs::exists(public_key))) {
     std::fprintf(stderr,
                  "ragdoll keygen: %s already exists; keeping it (--force replaces it, and every "

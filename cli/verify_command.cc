@@ -9,25 +9,16 @@
 #include "cli/experiment.h"
 #include "learner/checkpoint_file.h"
 #include "learner/learner.h"
+#include "learner/learner_process.h"
 
 namespace ragdoll::cli {
 namespace {
 namespace fs = std::filesystem;
 
-// The checkpoint files of a run folder (checkpoints/*.pt, damaged ones set aside included), or
-// the file itself.
+// The checkpoint files of a run folder, or the file itself.
 std::vector<fs::path> CheckpointFiles(const fs::path& target) {
   if (fs::is_regular_file(target)) return {target};
-  std::vector<fs::path> files;
-  std::error_code error;
-  for (const auto& entry : fs::directory_iterator(target / "checkpoints", error)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind("checkpoint-", 0) == 0 && entry.path().extension() == ".pt") {
-      files.push_back(entry.path());
-    }
-  }
-  std::sort(files.begin(), files.end());
-  return files;
+  return learner::Checkpoints(target / "checkpoints");
 }
 
 // "" when every weight and statistic is finite, else what is not.

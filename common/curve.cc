@@ -66,6 +66,13 @@ void WriteFile(const std::string& path, const std::string& text, mode_t mode) {
 
 }  // namespace
 
+KeyPaths KeyPathsOf(const std::string& keys_dir, const std::string& name, const std::string& role) {
+  const fs::path dir(keys_dir);
+  return {
+      (role == "broker" ? dir / (name + ".key") : dir / (role + "s") / (name + ".key")).string(),
+      (dir / (name + ".key_secret")).string()};
+}
+
 Certificate NewCertificate(const std::string& name, const std::string& role) {
   char public_key[kZ85KeyLength + 1], secret_key[kZ85KeyLength + 1];
   if (zmq_curve_keypair(public_key, secret_key) != 0) {

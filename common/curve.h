@@ -20,6 +20,14 @@ struct Certificate {
   std::string role;        // metadata: broker, actor or learner (may be empty)
 };
 
+// Where a pair of `role` named `name` lives in a keys folder (the layout above): the secret at
+// KEYS/NAME.key_secret; the public key at KEYS/NAME.key for the broker (every role reads it),
+// else in the folder the broker accepts that role's keys from, KEYS/ROLEs/NAME.key.
+struct KeyPaths {
+  std::string public_key, secret_key;
+};
+KeyPaths KeyPathsOf(const std::string& keys_dir, const std::string& name, const std::string& role);
+
 // A fresh key pair (libzmq's zmq_curve_keypair).
 Certificate NewCertificate(const std::string& name, const std::string& role);
 

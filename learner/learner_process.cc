@@ -35,6 +35,8 @@ std::string Duration(double seconds) {
   return buffer;
 }
 
+}  // namespace
+
 std::vector<fs::path> Checkpoints(const fs::path& folder) {
   std::vector<fs::path> out;
   if (!fs::is_directory(folder)) return out;
@@ -47,6 +49,8 @@ std::vector<fs::path> Checkpoints(const fs::path& folder) {
   std::sort(out.begin(), out.end());  // names carry zero-padded sample counts
   return out;
 }
+
+namespace {
 
 // The learner's Prometheus series. Episode and PPO figures are gauges holding the latest PPO
 // iteration's means; totals are counters of this process (a resumed run's totals are gauges).

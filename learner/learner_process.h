@@ -4,6 +4,7 @@
 #pragma once
 
 #include <atomic>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,9 @@ struct LearnerProcessConfig {
 // last one when restarted (`ragdoll train` restarts it; compose restarts the containers).
 int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop);
+
+// The checkpoint files (checkpoint-*.pt) of a run's checkpoints/ folder, oldest first.
+std::vector<std::filesystem::path> Checkpoints(const std::filesystem::path& folder);
 
 // The newest checkpoint file of a run folder or a checkpoint path itself; "" when none.
 std::string FindCheckpoint(const std::string& run_or_checkpoint);

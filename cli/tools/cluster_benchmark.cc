@@ -508,12 +508,8 @@ int main(int argc, char** argv) {
       keys = (fs::path(ragdoll).parent_path() / "bench-cluster-keys").string();
       fs::remove_all(keys);
       for (const char* role : {"broker", "actor", "learner"}) {
-        const fs::path pub =
-            role == std::string("broker")
-                ? fs::path(keys) / "broker.key"
-                : fs::path(keys) / (std::string(role) + "s") / (std::string(role) + ".key");
-        SaveCertificate(NewCertificate(role, role), pub.string(),
-                        (fs::path(keys) / (std::string(role) + ".key_secret")).string());
+        const KeyPaths paths = KeyPathsOf(keys, role, role);
+        SaveCertificate(NewCertificate(role, role), paths.public_key, paths.secret_key);
       }
     }
     const Ports ports = MakePorts(port_base, e.broker.endpoints, keys);

@@ -22,10 +22,8 @@ class BrokerTest : public ::testing::Test {
           std::filesystem::temp_directory_path() / ("broker_test_keys_" + std::to_string(getpid()));
       std::filesystem::remove_all(keys_);
       for (const char* role : {"broker", "actor", "learner"}) {
-        Certificate c = NewCertificate(role, role);
-        const std::string dir = role == std::string("broker") ? "" : std::string(role) + "s/";
-        SaveCertificate(c, (keys_ / (dir + role + ".key")).string(),
-                        (keys_ / (std::string(role) + ".key_secret")).string());
+        const KeyPaths paths = KeyPathsOf(keys_.string(), role, role);
+        SaveCertificate(NewCertificate(role, role), paths.public_key, paths.secret_key);
       }
       config_.endpoints.curve = LoadCurve(keys_.string(), "broker");
       config_.keys_dir = keys_.string();
@@ -304,7 +302,7 @@ TEST_F(CurveBrokerTest, AcceptsAKeyAddedToTheFolderWhileRunning) {
   }
   // keygen's layout: the public certificate lands in actors/; the broker re-reads the folder.
   std::this_thread::sleep_for(std::chrono::milliseconds(1100));
-  SaveCertificate(late, (keys_ / "actors" / "late.key").string(), "");
+  SaveCertificate(late, KeyPathsOf(keys_.string(), "late", "actor").public_key, "");
   zmq::socket_t actor = Connect(zmq::socket_type::push, config_.endpoints.trajectory_port, curve);
   v1::TrajectorySegment segment;
   actor.send(zmq::buffer(wire::Pack(v1::KIND_TRAJECTORY, "run", "late", segment, 1)),
