@@ -19,6 +19,11 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks; fuzzing with clang's libFuzzer, ASan and UBSan (tests/fuzz/)
   libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev
+  # motion import: FBX, glTF/GLB and COLLADA through Assimp; its command-line tool writes the
+  # test files in other tools' formats
+  libassimp-dev assimp-utils
+  # policy export: the ONNX graph built with ONNX's own protobuf classes and checker
+  libonnx-dev python3-onnx
   # rendering videos headless: GLFW + Mesa under Xvfb, frames encoded by ffmpeg
   libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg
   # integration tests: a real Prometheus server, queried over HTTP from the shell
@@ -33,6 +38,10 @@ packages=(
   # needed), on a Debian base image built locally with debootstrap
   podman podman-compose runc netavark aardvark-dns iptables debootstrap
 )
+
+# ONNX Runtime's Node.js binding checks exported policies (tests/onnx/); Debian's Node.js and npm
+# unless the machine already has them.
+if ! command -v npm > /dev/null; then packages+=(nodejs npm); fi
 
 missing=()
 for p in "${packages[@]}"; do
