@@ -7,17 +7,19 @@
 #include <iostream>
 #include <memory>
 
+#include "actor/sim/auto_mapping.h"
 #include "actor/sim/bvh.h"
 #include "actor/sim/clip_report.h"
 #include "actor/sim/motion_io.h"
 #include "actor/sim/retarget.h"
+#include "actor/sim/scene_import.h"
 
 namespace ragdoll::cli {
 namespace {
 
 struct MotionOptions {
-  std::string input, output, mapping = "cmu", naming = "ragdoll", order = "ZXY", units = "m",
-                             up = "y", character, json;
+  std::string input, output, mapping = "auto", animation, feet = "floor", naming = "ragdoll",
+                             order = "ZXY", units = "m", up = "y", character, json;
   sim::ImportOptions import;
   bool inspect_after = true;
 };
@@ -29,23 +31,26 @@ std::string CharacterPath(const std::string& given) {
 int Import(const MotionOptions& o) {
   using Clock = std::chrono::steady_clock;
   auto t0 = Clock::now();
-  sim::BvhMotion bvh = sim::LoadBvh(o.input);
+  std::vector<std::string> notes;
+  sim::SkeletonAnimation source = sim::LoadSkeletonAnimation(o.input, o.animation, &notes);
   auto t1 = Clock::now();
   auto character = sim::Character::Load(CharacterPath(o.character));
-  std::vector<std::string> warnings;
-  sim::MotionClip clip =
-      sim::RetargetBvh(bvh, sim::ReadJointMapping(o.mapping), *character, o.import, &warnings);
+  sim::JointMapping mapping = sim::ResolveMapping(o.mapping, source, &notes);
+  sim::ImportOptions options = o.import;
+  options.feet =
+      o.feet == "rest" ? sim::ImportOptions::Feet::kRest : sim::ImportOptions::Feet::kFloor;
+  sim::MotionClip clip = sim::Retarget(source, mapping, *character, options, &notes);
   auto t2 = Clock::now();
-  for (const auto& w : warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  for (const auto& n : notes) std::fprintf(stderr, "%s\n", n.c_str());
   sim::SaveClip(clip,
                 "imported from " + std::filesystem::path(o.input).filename().string() +
-                    " with mapping " + o.mapping,
+                    " with mapping " + mapping.origin,
                 o.output);
   std::fprintf(stderr,
-               "%s: %d frames at %.1f frames/s, %zu joints -> %s: %d frames, %.3f s "
-               "(parse %.0f ms, retarget %.0f ms)\n",
-               o.input.c_str(), bvh.num_frames(), 1 / bvh.frame_time, bvh.joints.size(),
-               o.output.c_str(), clip.num_frames(), clip.duration(),
+               "%s (%s): %d frames at %.1f frames/s, %zu joints -> %s: %d frames, %.3f s "
+               "(read %.0f ms, retarget %.0f ms)\n",
+               o.input.c_str(), source.format.c_str(), source.num_frames(), 1 / source.frame_time,
+               source.joints.size(), o.output.c_str(), clip.num_frames(), clip.duration(),
                std::chrono::duration<double, std::milli>(t1 - t0).count(),
                std::chrono::duration<double, std::milli>(t2 - t1).count());
   if (o.inspect_after) std::cout << sim::InspectClip(clip, *character).ToText();
@@ -86,11 +91,23 @@ std::function<int()> AddMotionCommands(CLI::App& app) {
   auto* motion = app.add_subcommand("motion", "import, export and inspect motion clips");
   motion->require_subcommand(1);
 
-  auto* import = motion->add_subcommand("import", "retarget a BVH file onto the character");
-  import->add_option("bvh", o->input, "BVH file")->required()->check(CLI::ExistingFile);
+  auto* import = motion->add_subcommand(
+      "import", "retarget a BVH, FBX, glTF/GLB or COLLADA animation onto the character");
+  import->add_option("file", o->input, "motion file (.bvh, .fbx, .gltf, .glb, .dae)")
+      ->required()
+      ->check(CLI::ExistingFile);
   import
       ->add_option("--map", o->mapping,
-                   "joint mapping: a preset (cmu, mixamo, ragdoll) or a YAML file")
+                   "joint mapping: auto (from the joint names), a preset (cmu, mixamo, "
+                   "ragdoll) or a YAML file")
+      ->capture_default_str();
+  import->add_option("--animation", o->animation,
+                     "which animation of a file that holds several: its name or index");
+  import
+      ->add_option("--feet", o->feet,
+                   "floor: level each foot on the frames it is planted; rest: align it from "
+                   "the rest pose like the other joints")
+      ->check(CLI::IsMember({"floor", "rest"}))
       ->capture_default_str();
   import->add_option("--out", o->output, "clip to write (.json)")->required();
   import->add_option("--name", o->import.name, "clip name (default: the file's stem)");

@@ -1,5 +1,5 @@
-// `ragdoll motion import|export|inspect`: bring a BVH clip onto the character, write a clip as
-// BVH, and check a clip for what a simulated character cannot reproduce.
+// `ragdoll motion import|export|inspect`: bring an animation (BVH, FBX, glTF, COLLADA) onto the
+// character, write a clip as BVH, and check a clip for what a simulated character cannot reproduce.
 #pragma once
 
 #include <CLI/CLI.hpp>

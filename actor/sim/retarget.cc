@@ -143,39 +143,6 @@ std::map<std::string, Vec3> CharacterRest(const Character& character) {
   return rest;
 }
 
-// A BVH joint by name; Mixamo-style namespaces ("mixamorig:Hips") match their bare names.
-int FindBvhJoint(const BvhMotion& bvh, const std::string& name) {
-  int exact = bvh.Find(name);
-  if (exact >= 0) return exact;
-  auto bare = [](const std::string& n) { return n.substr(n.rfind(':') + 1); };  // npos + 1 = 0
-  const std::string wanted = bare(name);
-  for (size_t i = 0; i < bvh.joints.size(); ++i) {
-    if (!bvh.joints[i].end_site && bare(bvh.joints[i].name) == wanted) return static_cast<int>(i);
-  }
-  return -1;
-}
-
-// World rotations and positions of every BVH joint at a frame (frame < 0: the rest pose, all
-// channels zero).
-void BvhForwardKinematics(const BvhMotion& bvh, int frame, std::vector<Quat>* rotation,
-                          std::vector<Vec3>* position) {
-  const size_t n = bvh.joints.size();
-  rotation->assign(n, kIdentityQuat);
-  position->assign(n, {0, 0, 0});
-  for (size_t j = 0; j < n; ++j) {
-    const BvhJoint& joint = bvh.joints[j];
-    Quat local = frame < 0 ? kIdentityQuat : bvh.LocalRotation(frame, static_cast<int>(j));
-    Vec3 offset = frame < 0 ? joint.offset : bvh.LocalTranslation(frame, static_cast<int>(j));
-    if (joint.parent < 0) {
-      (*rotation)[j] = local;
-      (*position)[j] = offset;
-    } else {
-      (*rotation)[j] = Normalized(Multiply((*rotation)[joint.parent], local));
-      (*position)[j] = Add((*position)[joint.parent], Rotate((*rotation)[joint.parent], offset));
-    }
-  }
-}
-
 }  // namespace
 
 const std::vector<std::string>& MappingParts() {
@@ -215,21 +182,21 @@ JointMapping ReadJointMapping(const std::string& preset_or_path) {
   return mapping;
 }
 
-MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
-                       const Character& character, const ImportOptions& options,
-                       std::vector<std::string>* warnings) {
+MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
+                    const Character& character, const ImportOptions& options,
+                    std::vector<std::string>* warnings) {
   auto fail = [&](const std::string& message) -> void {
-    throw ConfigError(bvh.origin + ": " + message);
+    throw ConfigError(source.origin + ": " + message);
   };
-  // Which BVH joint drives each part (after mirroring, a left part reads the right joint).
+  // Which source joint drives each part (after mirroring, a left part reads the right joint).
   std::map<std::string, int> joint;
   auto root = mapping.joints.find("root");
-  if (root == mapping.joints.end() || FindBvhJoint(bvh, root->second) < 0) {
+  if (root == mapping.joints.end() || source.Find(root->second) < 0) {
     fail("joint '" + (root == mapping.joints.end() ? std::string() : root->second) +
          "' (mapped to root in " + mapping.origin + ") is not in the file");
   }
   for (const auto& [part, name] : mapping.joints) {
-    int j = FindBvhJoint(bvh, name);
+    int j = source.Find(name);
     if (j < 0) {
       // A part the file lacks stays at rest (or, for bone ends, the joint's child is used).
       if (warnings) {
@@ -243,16 +210,15 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
   auto has = [&](const std::string& part) { return joint.count(part) > 0; };
   if (!has("root")) fail("the mapping does not name the root joint");
 
-  // The BVH rest pose: where is up, where is forward, how big is it.
-  std::vector<Quat> rest_rotation;  // all identity: rest is every channel at zero
+  // The source's rest pose: where is up, where is forward, how big is it.
   std::vector<Vec3> rest_position;
-  BvhForwardKinematics(bvh, -1, &rest_rotation, &rest_position);
+  for (const JointPose& p : source.rest) rest_position.push_back(p.position);
   // The far end of a part's bone: the mapped part, else the joint's first child.
   auto bone_end = [&](const std::string& part, const std::string& end) -> int {
     if (has(end)) return joint[end];
     if (!has(part)) return -1;
-    for (size_t c = 0; c < bvh.joints.size(); ++c) {
-      if (bvh.joints[c].parent == joint[part]) return static_cast<int>(c);
+    for (size_t c = 0; c < source.joints.size(); ++c) {
+      if (source.joints[c].parent == joint[part]) return static_cast<int>(c);
     }
     return -1;
   };
@@ -276,7 +242,7 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
   if (!(Norm(left_raw) > 0)) fail("cannot find left and right: map both hips or both shoulders");
   const Vec3 left = Snap(left_raw);
   const Vec3 forward = Cross(left, up);
-  // BVH coordinates -> the character's (x forward, y left, z up).
+  // Source coordinates -> the character's (x forward, y left, z up).
   const Mat3 to_character = {forward, left, up};
   const Quat to_character_q = ToQuat(to_character);
   const Quat from_character_q = Conjugate(to_character_q);
@@ -284,28 +250,36 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
   double scale = options.scale;
   const std::map<std::string, Vec3> char_rest = CharacterRest(character);
   if (!(scale > 0)) {
-    double bvh_leg = 0, char_leg = 0;
+    double source_leg = 0, char_leg = 0;
     for (const char* side : {"right_", "left_"}) {
       const std::string hip = std::string(side) + "hip", knee = std::string(side) + "knee",
                         ankle = std::string(side) + "ankle";
       if (has(hip) && has(knee) && has(ankle)) {
-        bvh_leg += Norm(Sub(rest_position[joint[hip]], rest_position[joint[knee]])) +
-                   Norm(Sub(rest_position[joint[knee]], rest_position[joint[ankle]]));
+        source_leg += Norm(Sub(rest_position[joint[hip]], rest_position[joint[knee]])) +
+                      Norm(Sub(rest_position[joint[knee]], rest_position[joint[ankle]]));
         char_leg += Norm(Sub(char_rest.at(hip), char_rest.at(knee))) +
                     Norm(Sub(char_rest.at(knee), char_rest.at(ankle)));
       }
     }
-    if (!(bvh_leg > 0)) fail("cannot find the leg length to scale by: map hips, knees and ankles");
-    scale = char_leg / bvh_leg;
+    if (!(source_leg > 0)) {
+      fail("cannot find the leg length to scale by: map hips, knees and ankles");
+    }
+    scale = char_leg / source_leg;
   }
 
-  // A BVH rest position in the character's coordinates (mirrored if asked).
+  // A source position in the character's coordinates (mirrored if asked).
   auto in_character = [&](const Vec3& v) {
     Vec3 c = Apply(to_character, v);
     return options.mirror ? Mirror(c) : c;
   };
+  // A joint's rotation at a frame relative to its rest, in the character's coordinates.
+  auto world_at = [&](int f, int j) {
+    Quat q = Multiply(source.frames[f][j].rotation, Conjugate(source.rest[j].rotation));
+    Quat world = Multiply(Multiply(to_character_q, q), from_character_q);
+    return options.mirror ? Mirror(world) : world;
+  };
   // Rest alignment of each segment: the rotation taking the character's rest segment frame
-  // (bone direction, twist reference) onto the BVH's.
+  // (bone direction, twist reference) onto the source's.
   std::vector<Quat> alignment(kSegmentCount, kIdentityQuat);
   std::vector<bool> driven(kSegmentCount, false);
   for (int s = 0; s < kSegmentCount; ++s) {
@@ -314,42 +288,107 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
     driven[s] = true;
     int end = bone_end(seg.part, seg.bone_end);
     if (end < 0) continue;  // no bone to align: rest frames taken as equal
-    Vec3 bvh_bone = in_character(Sub(rest_position[end], rest_position[joint[seg.part]]));
+    Vec3 source_bone = in_character(Sub(rest_position[end], rest_position[joint[seg.part]]));
     Vec3 char_bone = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
-    if (!(Norm(bvh_bone) > 1e-9)) continue;
-    Vec3 bvh_twist = {1, 0, 0}, char_twist = {1, 0, 0};
+    if (!(Norm(source_bone) > 1e-9)) continue;
+    Vec3 source_twist = {1, 0, 0}, char_twist = {1, 0, 0};
     auto pair = [&](const char* l, const char* r) {
       if (has(l) && has(r)) {
-        bvh_twist = in_character(Sub(rest_position[joint[l]], rest_position[joint[r]]));
+        source_twist = in_character(Sub(rest_position[joint[l]], rest_position[joint[r]]));
         char_twist = Sub(char_rest.at(l), char_rest.at(r));
       }
     };
     if (seg.twist == Twist::kHipsLeft) pair("left_hip", "right_hip");
     if (seg.twist == Twist::kShouldersLeft) pair("left_shoulder", "right_shoulder");
-    if (seg.twist == Twist::kUp) bvh_twist = char_twist = {0, 0, 1};
+    if (seg.twist == Twist::kUp) source_twist = char_twist = {0, 0, 1};
     auto perpendicular = [](const Vec3& bone, const Vec3& t) {
       return Norm(Sub(t, Scale(bone, Dot(t, bone) / Dot(bone, bone))));
     };
     // A twist reference along the bone fixes nothing: use the other world axis.
-    if (perpendicular(bvh_bone, bvh_twist) < 0.3 * Norm(bvh_twist) ||
+    if (perpendicular(source_bone, source_twist) < 0.3 * Norm(source_twist) ||
         perpendicular(char_bone, char_twist) < 0.3 * Norm(char_twist)) {
-      bvh_twist = char_twist = seg.twist == Twist::kUp ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+      source_twist = char_twist = seg.twist == Twist::kUp ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
     }
-    alignment[s] = ToQuat(Mul(Frame(bvh_bone, bvh_twist), Transpose(Frame(char_bone, char_twist))));
+    alignment[s] =
+        ToQuat(Mul(Frame(source_bone, source_twist), Transpose(Frame(char_bone, char_twist))));
   }
 
   // Frames.
-  const int last = options.last_frame < 0 ? bvh.num_frames() - 1 : options.last_frame;
-  if (options.first_frame < 0 || last >= bvh.num_frames() || last - options.first_frame < 1) {
+  const int last = options.last_frame < 0 ? source.num_frames() - 1 : options.last_frame;
+  if (options.first_frame < 0 || last >= source.num_frames() || last - options.first_frame < 1) {
     fail("frame range " + std::to_string(options.first_frame) + ".." + std::to_string(last) +
-         " needs at least two of the file's " + std::to_string(bvh.num_frames()) + " frames");
+         " needs at least two of the file's " + std::to_string(source.num_frames()) + " frames");
   }
+
+  // Feet: align each from the frames where the source's own foot is planted (ankle and toe
+  // near their lowest, toe nearly still), so that a foot flat on the floor in the capture is
+  // flat on the character's floor: the alignment that makes the character's foot level in
+  // those frames, keeping the heading the rest alignment gives it.
+  if (options.feet == ImportOptions::Feet::kFloor) {
+    for (const char* side : {"right_", "left_"}) {
+      const std::string ankle = std::string(side) + "ankle";
+      const int s = ankle[0] == 'r' ? 5 : 10;
+      const int toe = bone_end(ankle, std::string(side) + "toe");
+      if (!has(ankle) || toe < 0 || !driven[s]) continue;
+      const int a = joint[ankle];
+      auto height = [&](int f, int j) {
+        return in_character(source.frames[f][j].position)[2] * scale;
+      };
+      double toe_min = INFINITY, ankle_min = INFINITY;
+      for (int f = options.first_frame; f <= last; ++f) {
+        toe_min = std::min(toe_min, height(f, toe));
+        ankle_min = std::min(ankle_min, height(f, a));
+      }
+      const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
+      Quat sum = {0, 0, 0, 0};
+      int planted = 0;
+      for (int f = options.first_frame; f <= last; ++f) {
+        if (height(f, toe) > toe_min + 0.03 || height(f, a) > ankle_min + 0.03) continue;
+        const int g = f < last ? f + 1 : f - 1;
+        Vec3 step = Scale(Sub(in_character(source.frames[g][toe].position),
+                              in_character(source.frames[f][toe].position)),
+                          scale);
+        if (std::hypot(step[0], step[1]) / dt > 0.3) continue;  // the toe slides or swings
+        const Quat world = world_at(f, a);
+        const Quat level = HeadingOf(Multiply(world, alignment[s]));
+        Quat candidate = Normalized(Multiply(Conjugate(world), level));
+        double same_side = 0;  // q and -q are one rotation: add them on one side
+        for (int i = 0; i < 4; ++i) same_side += sum[i] * candidate[i];
+        if (same_side < 0) {
+          for (double& x : candidate) x = -x;
+        }
+        for (int i = 0; i < 4; ++i) sum[i] += candidate[i];
+        ++planted;
+      }
+      char line[200];
+      if (planted < 3) {
+        std::snprintf(line, sizeof line,
+                      "%sfoot: planted in %d frames, too few to level it: aligned from the rest "
+                      "pose",
+                      side, planted);
+        if (warnings) warnings->push_back(line);
+        continue;
+      }
+      const Quat floor_alignment = Normalized(sum);
+      const double turn = AngleBetween(alignment[s], floor_alignment) * 180 / M_PI;
+      if (turn > 60) {
+        std::snprintf(line, sizeof line,
+                      "%sfoot: levelling it on its %d planted frames would turn it %.0f degrees: "
+                      "kept the rest pose's alignment",
+                      side, planted, turn);
+      } else {
+        std::snprintf(line, sizeof line,
+                      "%sfoot: levelled on its %d planted frames (%.1f degrees from the rest pose)",
+                      side, planted, turn);
+        alignment[s] = floor_alignment;
+      }
+      if (warnings) warnings->push_back(line);
+    }
+  }
+
   const auto& skeleton = Humanoid3dJoints();
   std::vector<Pose> frames;
-  std::vector<Quat> rotation;
-  std::vector<Vec3> position;
   for (int f = options.first_frame; f <= last; ++f) {
-    BvhForwardKinematics(bvh, f, &rotation, &position);
     std::vector<Quat> global(kSegmentCount, kIdentityQuat);
     Pose pose;
     pose.joint_rotations.assign(skeleton.size(), kIdentityQuat);
@@ -360,9 +399,7 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
         global[s] = parent;  // stays at rest relative to its parent
         continue;
       }
-      Quat world = Multiply(Multiply(to_character_q, rotation[joint[seg.part]]), from_character_q);
-      if (options.mirror) world = Mirror(world);
-      Quat g = Normalized(Multiply(world, alignment[s]));
+      Quat g = Normalized(Multiply(world_at(f, joint[seg.part]), alignment[s]));
       if (s == 0) {
         global[s] = g;
         continue;
@@ -376,7 +413,7 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
       pose.joint_rotations[FindJoint(seg.part)] = local;
     }
     pose.root_rotation = global[0];
-    pose.root_position = Scale(in_character(position[joint["root"]]), scale);
+    pose.root_position = Scale(in_character(source.frames[f][joint["root"]].position), scale);
     frames.push_back(std::move(pose));
   }
 
@@ -392,8 +429,8 @@ MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
   for (Pose& p : frames) p.root_position[2] -= lowest;
 
   std::string name =
-      options.name.empty() ? std::filesystem::path(bvh.origin).stem().string() : options.name;
-  std::vector<double> durations(frames.size(), bvh.frame_time);
+      options.name.empty() ? std::filesystem::path(source.origin).stem().string() : options.name;
+  std::vector<double> durations(frames.size(), source.frame_time);
   MotionClip clip(name, options.loop, durations, frames);
   if (!(options.fps > 0)) return clip;
   // Resample: whole intervals over the same duration (a loop still closes exactly).

@@ -1,15 +1,16 @@
-// Retargeting BVH motion onto the project's character, and exporting clips as BVH.
+// Retargeting skeletal motion (BVH, FBX, glTF, COLLADA: actor/sim/scene_import.h) onto the
+// project's character, and exporting clips as BVH.
 //
 // Import works on bone directions and rotations, not on joint names alone: each character
-// segment (pelvis, chest, neck, thighs, shins, feet, upper arms, forearms) is driven by one BVH
-// joint named in a mapping file. The rest poses of the two skeletons are aligned once per
-// segment (bone direction plus a twist reference), so a T-posed mocap skeleton drives the
-// arms-down character correctly; every frame, a segment's world rotation is the BVH joint's world
-// rotation composed with that alignment. BVH joints the character lacks (extra spine, clavicle,
-// neck joints) are folded in because world rotations include every joint above them; parts the
-// mapping leaves out stay at rest. The up axis, facing direction and units are found from the
-// BVH's rest pose (hips, spine, legs), so Y-up and Z-up files in centimetres or metres import
-// alike.
+// segment (pelvis, chest, neck, thighs, shins, feet, upper arms, forearms) is driven by one
+// source joint named in a mapping (a file, or found by `--map auto`: actor/sim/auto_mapping.h). The
+// rest poses of the two skeletons are aligned once per segment (bone direction plus a twist
+// reference), so a T-posed mocap skeleton drives the arms-down character correctly; every frame, a
+// segment's world rotation is the BVH joint's world rotation composed with that alignment. BVH
+// joints the character lacks (extra spine, clavicle, neck joints) are folded in because world
+// rotations include every joint above them; parts the mapping leaves out stay at rest. The up axis,
+// facing direction and units are found from the BVH's rest pose (hips, spine, legs), so Y-up and
+// Z-up files in centimetres or metres import alike.
 #pragma once
 
 #include <map>
@@ -19,6 +20,7 @@
 #include "actor/sim/bvh.h"
 #include "actor/sim/character.h"
 #include "actor/sim/motion_clip.h"
+#include "actor/sim/skeleton_animation.h"
 
 namespace ragdoll::sim {
 
@@ -42,13 +44,18 @@ struct ImportOptions {
   bool mirror = false;  // swap left and right
   bool loop = false;    // mark the clip as looping (its last frame should close the cycle)
   double scale = 0;     // metres per BVH unit; 0 = from leg length
+  // How each foot's rest alignment is chosen. kFloor: from the frames where the source's own
+  // ankle and toe are planted, so that a foot flat on the floor in the capture is flat on the
+  // character's floor. kRest: from the rest pose alone, like every other segment.
+  enum class Feet { kFloor, kRest } feet = Feet::kFloor;
 };
 
-// Throws ConfigError naming the BVH file and the problem (no root joint, an unusable rest pose,
-// a bad frame range). Mapped joints the file lacks are reported in `warnings` and stay at rest.
-MotionClip RetargetBvh(const BvhMotion& bvh, const JointMapping& mapping,
-                       const Character& character, const ImportOptions& options,
-                       std::vector<std::string>* warnings = nullptr);
+// Throws ConfigError naming the file and the problem (no root joint, an unusable rest pose,
+// a bad frame range). Mapped joints the file lacks are reported in `warnings` and stay at rest;
+// decisions worth knowing (the foot alignment found) are reported there too.
+MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
+                    const Character& character, const ImportOptions& options,
+                    std::vector<std::string>* warnings = nullptr);
 
 struct ExportOptions {
   std::string rotation_order = "ZXY";  // channel order of every joint's rotation
