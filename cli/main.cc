@@ -2,6 +2,7 @@
 //   ragdoll train CONFIG         broker + learner + actors on this machine
 //   ragdoll broker|learner|actor CONFIG   one role, for distributed runs
 //   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out (and RUN/eval.json)
+//   ragdoll export RUN_OR_CHECKPOINT --onnx FILE   the policy as ONNX, with a JSON sidecar
 //   ragdoll render [RUN_OR_CHECKPOINT] --clip CLIP --out FILE.mp4|.gif|.png
 //   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
 //   ragdoll report RUN [RUN ...] --out FILE.html   curves, evaluation and a GIF of runs, one page
@@ -23,6 +24,7 @@
 #include "actor/rollout.h"
 #include "broker/broker.h"
 #include "cli/experiment.h"
+#include "cli/export_command.h"
 #include "cli/keygen_command.h"
 #include "cli/launcher.h"
 #include "cli/motion_commands.h"
@@ -159,6 +161,7 @@ int main(int argc, char** argv) {
   std::function<int()> report = cli::AddReportCommand(app);
   std::function<int()> keygen = cli::AddKeygenCommand(app);
   std::function<int()> verify = cli::AddVerifyCommand(app);
+  std::function<int()> exporter = cli::AddExportCommand(app);
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {
@@ -168,6 +171,7 @@ int main(int argc, char** argv) {
     if (int code = report(); code >= 0) return code;
     if (int code = keygen(); code >= 0) return code;
     if (int code = verify(); code >= 0) return code;
+    if (int code = exporter(); code >= 0) return code;
 
     if (*eval_cmd) {
       cli::TrainedPolicy policy = cli::LoadTrainedPolicy(eval_target);

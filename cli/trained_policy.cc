@@ -1,5 +1,6 @@
 #include "cli/trained_policy.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
@@ -33,6 +34,13 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   p.snapshot = l.Snapshot();
   p.version = l.version();
   p.samples = l.samples();
+  p.critic = l.critic();
+  p.critic->eval();
+  if (p.experiment.trainer.normalize_value) {
+    // As Learner::ValueFromCritic turns the critic's output into returns.
+    p.value_scale = std::sqrt(l.return_stats().var()[0] + 1e-8);
+    p.value_offset = l.return_stats().mean()[0];
+  }
   return p;
 }
 

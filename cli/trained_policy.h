@@ -1,10 +1,12 @@
-// A trained policy as the tools (eval, render) use it: the newest checkpoint of a run folder
-// (or a checkpoint file), the run's effective configuration, and the policy snapshot.
+// A trained policy as the tools (eval, render, export) use it: the newest checkpoint of a run
+// folder (or a checkpoint file), the run's effective configuration, the policy snapshot and the
+// critic.
 #pragma once
 
 #include <string>
 
 #include "cli/experiment.h"
+#include "common/policy.h"
 #include "common/wire.h"
 
 namespace ragdoll::cli {
@@ -15,6 +17,10 @@ struct TrainedPolicy {
   v1::PolicySnapshot snapshot;
   int64_t version = 0;
   int64_t samples = 0;
+  // The critic, and how its output becomes a value in return units (the learner's value
+  // normalisation): value = critic(normalised observation) * value_scale + value_offset.
+  ValueNetwork critic{nullptr};
+  double value_scale = 1, value_offset = 0;
 };
 
 // Throws ConfigError when there is no checkpoint or it does not fit the run's config.
