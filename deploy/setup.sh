@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs every Debian package ragdoll needs to build, test and run. Idempotent: packages that
-# are already installed are left alone, so running it again is cheap.
+# Installs every Debian package ragdoll needs to build, test and run, and the ONNX export test's
+# Node.js packages. Idempotent: what is already installed is left alone, so running it again is
+# cheap.
 set -euo pipefail
 
 packages=(
@@ -22,6 +23,8 @@ packages=(
   # motion import: FBX, glTF/GLB and COLLADA through Assimp; its command-line tool writes the
   # test files in other tools' formats
   libassimp-dev assimp-utils
+  # the import tests read FBX, GLB and COLLADA files that Blender writes, as users' files are
+  blender
   # policy export: the ONNX graph built with ONNX's own protobuf classes and checker
   libonnx-dev python3-onnx
   # rendering videos headless: GLFW + Mesa under Xvfb, frames encoded by ffmpeg
@@ -52,11 +55,24 @@ done
 
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#packages[@]} packages already installed"
-  exit 0
+else
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
+  $sudo apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
-sudo=""
-if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
-echo "setup: installing ${#missing[@]} packages: ${missing[*]}"
-$sudo apt-get update -q
-DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
+# The ONNX export test's Node.js dependencies (ONNX Runtime's binding), exactly as
+# tests/onnx/package-lock.json pins them, into tests/onnx/node_modules. --ignore-scripts: the
+# package carries its Linux x64 library; its install script only fetches optional GPU extras.
+# Skipped when node_modules was installed from the same lock file.
+onnx_test="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/tests/onnx"
+stamp="$onnx_test/node_modules/.installed-from-package-lock.json"
+if cmp -s "$onnx_test/package-lock.json" "$stamp"; then
+  echo "setup: tests/onnx/node_modules up to date"
+else
+  echo "setup: installing tests/onnx's Node.js packages (npm ci)"
+  (cd "$onnx_test" && npm ci --ignore-scripts --no-audit --no-fund)
+  cp "$onnx_test/package-lock.json" "$stamp"
+fi
