@@ -18,8 +18,9 @@ namespace ragdoll::cli {
 namespace {
 
 struct MotionOptions {
-  std::string input, output, mapping = "auto", animation, feet = "floor", naming = "ragdoll",
-                             order = "ZXY", units = "m", up = "y", character, json;
+  std::string input, output, mapping = "auto", animation, feet = "floor", bvh_reader = "ragdoll",
+                             naming = "ragdoll", order = "ZXY", units = "m", up = "y", character,
+                             json;
   sim::ImportOptions import;
   bool inspect_after = true;
 };
@@ -32,7 +33,9 @@ int Import(const MotionOptions& o) {
   using Clock = std::chrono::steady_clock;
   auto t0 = Clock::now();
   std::vector<std::string> notes;
-  sim::SkeletonAnimation source = sim::LoadSkeletonAnimation(o.input, o.animation, &notes);
+  sim::SkeletonAnimation source = sim::LoadSkeletonAnimation(
+      o.input, o.animation, &notes,
+      o.bvh_reader == "assimp" ? sim::BvhReader::kAssimp : sim::BvhReader::kRagdoll);
   auto t1 = Clock::now();
   auto character = sim::Character::Load(CharacterPath(o.character));
   sim::JointMapping mapping = sim::ResolveMapping(o.mapping, source, &notes);
@@ -108,6 +111,11 @@ std::function<int()> AddMotionCommands(CLI::App& app) {
                    "floor: level each foot on the frames it is planted; rest: align it from "
                    "the rest pose like the other joints")
       ->check(CLI::IsMember({"floor", "rest"}))
+      ->capture_default_str();
+  import
+      ->add_option("--bvh-reader", o->bvh_reader,
+                   "read BVH files with ragdoll's parser or Assimp's")
+      ->check(CLI::IsMember({"ragdoll", "assimp"}))
       ->capture_default_str();
   import->add_option("--out", o->output, "clip to write (.json)")->required();
   import->add_option("--name", o->import.name, "clip name (default: the file's stem)");

@@ -28,6 +28,7 @@ struct BvhMotion {
   int channel_count = 0;                    // values per frame
   double frame_time = 0;                    // seconds
   std::vector<std::vector<double>> frames;  // [frame][channel], as in the file (degrees, units)
+  std::vector<std::string> notes;           // what the reader tolerated, "file:line: what"
 
   int num_frames() const { return static_cast<int>(frames.size()); }
   // Index of the joint called `name` (not end sites), or -1.
@@ -42,7 +43,7 @@ struct BvhMotion {
 
 // Parses BVH text; `origin` names it in errors. Throws ConfigError "origin:line: reason" for a
 // bad hierarchy, a channel count that does not match, a truncated motion section or a value
-// that is not a finite number.
+// that is not a finite number. Lines beyond the declared frame count are ignored, with a note.
 BvhMotion ParseBvh(const std::string& text, const std::string& origin);
 BvhMotion LoadBvh(const std::string& path);
 

@@ -154,13 +154,17 @@ double GeomLowestPoint(const mjModel* m, const mjData* d, int g) {
   }
 }
 
-double Character::LowestPoint(const Pose& pose) const {
+double Character::LowestPoint(const Pose& pose, const std::vector<int>& bodies) const {
   DataPtr d = MakeData();
   PoseToQpos(pose, d->qpos);
   mj_kinematics(model_.get(), d.get());
   double lowest = INFINITY;
   for (int g = 0; g < model_->ngeom; ++g) {
     if (model_->geom_bodyid[g] == 0) continue;  // the floor and other world geometry
+    if (!bodies.empty() &&
+        std::find(bodies.begin(), bodies.end(), model_->geom_bodyid[g]) == bodies.end()) {
+      continue;
+    }
     lowest = std::min(lowest, GeomLowestPoint(model_.get(), d.get(), g));
   }
   return lowest;

@@ -71,8 +71,9 @@ class Character {
   int root_body() const { return bodies_[0]; }
   double total_mass() const { return total_mass_; }
   int BodyId(const std::string& name) const;
-  // The lowest point of the character's geometry (world z, metres) in a pose.
-  double LowestPoint(const Pose& pose) const;
+  // The lowest point of the character's geometry (world z, metres) in a pose; of the given
+  // bodies' geometry only when `bodies` is not empty.
+  double LowestPoint(const Pose& pose, const std::vector<int>& bodies = {}) const;
 
   // Joint coordinates for a pose: root position and rotation, then each joint's rotation
   // decomposed onto its hinges and clamped to the joint's range (so a reference is always a pose

@@ -334,11 +334,16 @@ MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping
       auto height = [&](int f, int j) {
         return in_character(source.frames[f][j].position)[2] * scale;
       };
-      double toe_min = INFINITY, ankle_min = INFINITY;
+      // The floor under this foot: its 1st-percentile heights (a glitch frame is not the floor).
+      std::vector<double> toe_heights, ankle_heights;
       for (int f = options.first_frame; f <= last; ++f) {
-        toe_min = std::min(toe_min, height(f, toe));
-        ankle_min = std::min(ankle_min, height(f, a));
+        toe_heights.push_back(height(f, toe));
+        ankle_heights.push_back(height(f, a));
       }
+      std::sort(toe_heights.begin(), toe_heights.end());
+      std::sort(ankle_heights.begin(), ankle_heights.end());
+      const double toe_min = toe_heights[toe_heights.size() / 100];
+      const double ankle_min = ankle_heights[ankle_heights.size() / 100];
       const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
       Quat sum = {0, 0, 0, 0};
       int planted = 0;
@@ -417,16 +422,23 @@ MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping
     frames.push_back(std::move(pose));
   }
 
-  // Normalise: start at the origin facing +x, lowest point of the clip on the floor.
+  // Normalise: start at the origin facing +x, the feet on the floor. The floor is where the
+  // feet are lowest, not the lowest point of anything: a capture whose hands reach the ground
+  // with the source's longer arms would otherwise float the character's standing feet (the
+  // other bodies' penetration is what `inspect` reports). The lowest 1 % of frames is left out,
+  // as capture glitches.
   const Vec3 start = frames.front().root_position;
   const Quat heading = AxisAngle({0, 0, 1}, -YawOf(frames.front().root_rotation));
   for (Pose& p : frames) {
     p.root_rotation = Normalized(Multiply(heading, p.root_rotation));
     p.root_position = Rotate(heading, Sub(p.root_position, {start[0], start[1], 0}));
   }
-  double lowest = INFINITY;
-  for (const Pose& p : frames) lowest = std::min(lowest, character.LowestPoint(p));
-  for (Pose& p : frames) p.root_position[2] -= lowest;
+  const std::vector<int> feet = {character.BodyId("right_ankle"), character.BodyId("left_ankle")};
+  std::vector<double> foot_heights;
+  for (const Pose& p : frames) foot_heights.push_back(character.LowestPoint(p, feet));
+  std::sort(foot_heights.begin(), foot_heights.end());
+  const double floor_height = foot_heights[foot_heights.size() / 100];
+  for (Pose& p : frames) p.root_position[2] -= floor_height;
 
   std::string name =
       options.name.empty() ? std::filesystem::path(source.origin).stem().string() : options.name;

@@ -419,13 +419,15 @@ std::vector<AnimationInfo> ListAnimations(const std::string& path) {
 }
 
 SkeletonAnimation LoadSkeletonAnimation(const std::string& path, const std::string& animation,
-                                        std::vector<std::string>* notes) {
-  if (IsBvh(path)) {
+                                        std::vector<std::string>* notes, BvhReader bvh_reader) {
+  if (IsBvh(path) && bvh_reader == BvhReader::kRagdoll) {
     if (!animation.empty() && animation != "0") {
       throw ConfigError(path + ": a BVH file holds one animation; no animation '" + animation +
                         "'");
     }
-    return FromBvh(LoadBvh(path));
+    BvhMotion bvh = LoadBvh(path);
+    if (notes) notes->insert(notes->end(), bvh.notes.begin(), bvh.notes.end());
+    return FromBvh(bvh);
   }
   return Scene(path).Load(animation, notes);
 }

@@ -27,7 +27,11 @@ std::vector<AnimationInfo> ListAnimations(const std::string& path);
 // own spacing (baked animation: one key per frame), or at 30 frames/s when keys are sparse.
 // What was ignored or chosen goes to `notes`. Throws ConfigError naming the file and the
 // problem: unreadable, malformed or truncated, no animation, no such animation.
+// BVH files go to the project's parser unless `bvh_reader` says Assimp's (measured against each
+// other on real captures in docs/motion-import.md).
+enum class BvhReader { kRagdoll, kAssimp };
 SkeletonAnimation LoadSkeletonAnimation(const std::string& path, const std::string& animation = "",
-                                        std::vector<std::string>* notes = nullptr);
+                                        std::vector<std::string>* notes = nullptr,
+                                        BvhReader bvh_reader = BvhReader::kRagdoll);
 
 }  // namespace ragdoll::sim

@@ -121,6 +121,16 @@ TEST(Bvh, RejectsMalformedFilesWithFileLineAndReason) {
   ExpectRejected(Replace(good, "JOINT LeftUpLeg", "JOINT Hips"), "6", "used twice");
 }
 
+// Real files miscount their frames: the declared ones are read and the extra lines reported.
+TEST(Bvh, LinesBeyondTheDeclaredFramesAreIgnoredWithANote) {
+  const std::string good = kSmall;
+  BvhMotion m = ParseBvh(Replace(good, "Frames: 2", "Frames: 1"), "short.bvh");
+  EXPECT_EQ(m.num_frames(), 1);
+  ASSERT_EQ(m.notes.size(), 1u);
+  EXPECT_EQ(m.notes[0], "short.bvh:20: 1 line after the 1 frames 'Frames:' declares: ignored");
+  EXPECT_TRUE(ParseBvh(good, "small.bvh").notes.empty());
+}
+
 TEST(Bvh, AMissingFileIsAConfigError) {
   EXPECT_THROW(LoadBvh("/nonexistent/file.bvh"), ConfigError);
 }
