@@ -376,7 +376,49 @@ class Scene {
       rest_s[j] = {s.x, s.y, s.z};
       rest_r[j] = Normalized({r.w, r.x, r.y, r.z});
     }
-    out.rest = world(local);
+    // Skinned meshes carry each bone's bind pose (the inverse of its offset matrix, in the mesh's
+    // space): the pose the skeleton was built in, which node transforms need not be (Blender
+    // writes the pose of the frame it exports from). Where there is one it is the rest pose.
+    std::map<std::string, Mat4> bind;
+    for (unsigned i = 0; i < scene_->mNumMeshes; ++i) {
+      const aiMesh* mesh = scene_->mMeshes[i];
+      if (!mesh->HasBones()) continue;
+      const aiNode* holder = MeshNode(scene_->mRootNode, i);
+      Mat4 mesh_world;
+      for (const aiNode* n = holder; n; n = n->mParent) {
+        mesh_world = Mul(FromAssimp(n->mTransformation), mesh_world);
+      }
+      for (unsigned b = 0; b < mesh->mNumBones; ++b) {
+        aiMatrix4x4 inverse = mesh->mBones[b]->mOffsetMatrix;
+        inverse.Inverse();
+        const Mat4 m = Mul(mesh_world, FromAssimp(inverse));
+        if (IsFinite(m)) bind.emplace(mesh->mBones[b]->mName.C_Str(), m);
+      }
+    }
+    std::vector<Mat4> rest_world(nodes.size());
+    std::vector<bool> from_bind(nodes.size(), false);
+    int bound = 0;
+    for (size_t j = 0; j < nodes.size(); ++j) {
+      const int parent = out.joints[j].parent;
+      auto it = bind.find(out.joints[j].name);
+      if (it != bind.end()) {
+        rest_world[j] = it->second;
+        from_bind[j] = true;
+        ++bound;
+      } else {
+        rest_world[j] = Mul(parent < 0 ? above : rest_world[parent], local[j]);
+        from_bind[j] = parent >= 0 && from_bind[parent];
+      }
+    }
+    if (bound > 0) {
+      for (size_t j = 0; j < nodes.size(); ++j) out.rest.push_back(PoseOf(rest_world[j]));
+      if (notes) {
+        notes->push_back("rest pose: the skinned mesh's bind pose (" + std::to_string(bound) +
+                         " of " + std::to_string(nodes.size()) + " joints)");
+      }
+    } else {
+      out.rest = world(local);
+    }
     out.frames.reserve(frames);
     for (int f = 0; f < frames; ++f) {
       const double t = start + f * step;
@@ -392,6 +434,17 @@ class Scene {
       out.frames.push_back(world(local));
     }
     return out;
+  }
+
+  // The first node that draws mesh `index`, or nullptr.
+  static const aiNode* MeshNode(const aiNode* node, unsigned index) {
+    for (unsigned m = 0; m < node->mNumMeshes; ++m) {
+      if (node->mMeshes[m] == index) return node;
+    }
+    for (unsigned c = 0; c < node->mNumChildren; ++c) {
+      if (const aiNode* found = MeshNode(node->mChildren[c], index)) return found;
+    }
+    return nullptr;
   }
 
   std::string FormatName() const {

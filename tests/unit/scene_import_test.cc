@@ -26,7 +26,10 @@ const std::string kAssets = RAGDOLL_ASSETS_DIR;
 
 // An Assimp scene holding `bvh`'s skeleton under an "Armature" node, with one animation per
 // entry of `names` (all the same motion), keys at the frames, `ticks_per_second` as given.
-aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& names) {
+// With `posed_with_skin`, the nodes hold the first frame's pose (as Blender writes them) and a
+// skinned triangle carries the rest pose as its bones' offset matrices.
+aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& names,
+                      bool posed_with_skin = false) {
   auto* scene = new aiScene();
   scene->mRootNode = new aiNode("Scene");
   auto* armature = new aiNode("Armature");
@@ -42,6 +45,16 @@ aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& name
     node->mTransformation.a4 = static_cast<ai_real>(joint.offset[0]);
     node->mTransformation.b4 = static_cast<ai_real>(joint.offset[1]);
     node->mTransformation.c4 = static_cast<ai_real>(joint.offset[2]);
+    if (posed_with_skin && !joint.end_site) {
+      const Quat q = bvh.LocalRotation(0, static_cast<int>(j));
+      const Vec3 t = bvh.LocalTranslation(0, static_cast<int>(j));
+      node->mTransformation =
+          aiMatrix4x4(aiVector3D(1, 1, 1),
+                      aiQuaternion(static_cast<ai_real>(q[0]), static_cast<ai_real>(q[1]),
+                                   static_cast<ai_real>(q[2]), static_cast<ai_real>(q[3])),
+                      aiVector3D(static_cast<ai_real>(t[0]), static_cast<ai_real>(t[1]),
+                                 static_cast<ai_real>(t[2])));
+    }
     nodes.push_back(node);
     if (joint.parent >= 0) children[joint.parent].push_back(node);
   }
@@ -98,7 +111,61 @@ aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& name
   // Exporters want a material; a scene without meshes is "incomplete" to Assimp.
   scene->mNumMaterials = 1;
   scene->mMaterials = new aiMaterial* [1] { new aiMaterial() };
-  scene->mFlags |= AI_SCENE_FLAGS_INCOMPLETE;
+  if (!posed_with_skin) {
+    scene->mFlags |= AI_SCENE_FLAGS_INCOMPLETE;
+    return scene;
+  }
+  // A triangle skinned to every joint; each bone's offset matrix is the inverse of the joint's
+  // rest (all rotations zero) world transform, the mesh node at the scene root.
+  auto* mesh = new aiMesh();
+  mesh->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  mesh->mNumVertices = 3;
+  mesh->mVertices = new aiVector3D[3];
+  mesh->mVertices[1] = aiVector3D(1, 0, 0);
+  mesh->mVertices[2] = aiVector3D(0, 1, 0);
+  mesh->mNumFaces = 1;
+  mesh->mFaces = new aiFace[1];
+  mesh->mFaces[0].mNumIndices = 3;
+  mesh->mFaces[0].mIndices = new unsigned[3];
+  for (unsigned i = 0; i < 3; ++i) mesh->mFaces[0].mIndices[i] = i;
+  std::vector<aiBone*> bones;
+  std::vector<Vec3> rest(bvh.joints.size());
+  for (size_t j = 0; j < bvh.joints.size(); ++j) {
+    const BvhJoint& joint = bvh.joints[j];
+    rest[j] = joint.offset;
+    if (joint.parent >= 0) {
+      for (int i = 0; i < 3; ++i) rest[j][i] += rest[joint.parent][i];
+    }
+    if (joint.end_site) continue;
+    auto* bone = new aiBone();
+    bone->mName = joint.name;
+    aiMatrix4x4 offset;
+    offset.a4 = static_cast<ai_real>(-rest[j][0]);
+    offset.b4 = static_cast<ai_real>(-rest[j][1]);
+    offset.c4 = static_cast<ai_real>(-rest[j][2]);
+    bone->mOffsetMatrix = offset;
+    bone->mNumWeights = 1;
+    bone->mWeights = new aiVertexWeight[1];
+    bone->mWeights[0] = aiVertexWeight(static_cast<unsigned>(j % 3), 0.1f);
+    bones.push_back(bone);
+  }
+  mesh->mNumBones = static_cast<unsigned>(bones.size());
+  mesh->mBones = new aiBone*[bones.size()];
+  std::copy(bones.begin(), bones.end(), mesh->mBones);
+  scene->mNumMeshes = 1;
+  scene->mMeshes = new aiMesh*[1];
+  scene->mMeshes[0] = mesh;
+  auto* holder = new aiNode("Body");
+  holder->mParent = scene->mRootNode;
+  holder->mNumMeshes = 1;
+  holder->mMeshes = new unsigned[1];
+  holder->mMeshes[0] = 0;
+  auto** root_children = new aiNode*[2];
+  root_children[0] = scene->mRootNode->mChildren[0];
+  root_children[1] = holder;
+  delete[] scene->mRootNode->mChildren;
+  scene->mRootNode->mChildren = root_children;
+  scene->mRootNode->mNumChildren = 2;
   return scene;
 }
 
@@ -123,14 +190,15 @@ class SceneImportTest : public ::testing::Test {
   // `clip` exported on the `naming` skeleton (Y up, centimetres, as tools write), written by
   // Assimp's `format` exporter; the path, or "" with the exporter's complaint in `why`.
   std::string Write(const MotionClip& clip, const std::string& naming, const Format& format,
-                    const std::vector<std::string>& animations, std::string* why) {
+                    const std::vector<std::string>& animations, std::string* why,
+                    bool posed_with_skin = false) {
     ExportOptions options;
     options.y_up = true;
     options.units_per_metre = 100;
     BvhMotion bvh = ClipToBvh(clip, *character_, ReadJointMapping(naming), options);
-    std::unique_ptr<aiScene> scene(SceneFromBvh(bvh, animations));
-    const std::string path =
-        dir_ + "/" + clip.name() + "_" + naming + "_" + format.id + format.extension;
+    std::unique_ptr<aiScene> scene(SceneFromBvh(bvh, animations, posed_with_skin));
+    const std::string path = dir_ + "/" + clip.name() + "_" + naming + "_" + format.id +
+                             (posed_with_skin ? "_skinned" : "") + format.extension;
     Assimp::Exporter exporter;
     if (exporter.Export(scene.get(), format.id, path) != aiReturn_SUCCESS) {
       *why = exporter.GetErrorString();
@@ -196,6 +264,30 @@ TEST_F(SceneImportTest, EveryFormatRoundTripsOnMixamoAndCmuSkeletons) {
       EXPECT_LT(rotation, 1e-4) << naming << " " << format.id;  // float precision in the files
       EXPECT_LT(position, 1e-4) << naming << " " << format.id;
     }
+  }
+}
+
+// Node transforms holding the first frame's pose (as Blender writes them) and the rest pose in a
+// skinned mesh's bind matrices: the bind pose is the rest pose, and the clip comes back whole.
+TEST_F(SceneImportTest, TheSkinnedMeshsBindPoseIsTheRestPose) {
+  ImportOptions options;
+  options.feet = ImportOptions::Feet::kRest;
+  for (const Format& format : {kFormats[0], kFormats[1]}) {
+    std::string why;
+    const std::string path = Write(walk_, "cmu", format, {"Take 001"}, &why, true);
+    ASSERT_FALSE(path.empty()) << why;
+    std::vector<std::string> notes;
+    SkeletonAnimation source = LoadSkeletonAnimation(path, "", &notes);
+    bool noted = false;
+    for (const std::string& n : notes) noted |= n.rfind("rest pose: the skinned mesh's", 0) == 0;
+    EXPECT_TRUE(noted) << format.id;
+    MotionClip back = Retarget(source, ReadJointMapping("cmu"), *character_, options);
+    double rotation, position;
+    Compare(walk_, back, &rotation, &position);
+    std::printf("skinned %-6s rotation error %.2e rad  root error %.2e m\n", format.id, rotation,
+                position);
+    EXPECT_LT(rotation, 1e-4) << format.id;
+    EXPECT_LT(position, 1e-4) << format.id;
   }
 }
 
