@@ -434,8 +434,10 @@ class Mapper {
     if (has("leftcollar") && has("lefthip")) return "CMU (Hips, LeftHip, LeftShoulder...)";
     if (has("pelvis") && has("thigh_l") && has("calf_l")) return "Unreal";
     if (has("leftupperleg") && has("leftlowerleg")) return "Unity humanoid";
-    if (has("bip01") || has("bip001") || has("bip01 pelvis") || has("bip001 pelvis"))
-      return "3ds Max Biped";
+    const bool biped = std::any_of(lower.begin(), lower.end(), [](const std::string& n) {
+      return n.rfind("bip01", 0) == 0 || n.rfind("bip001", 0) == 0;
+    });
+    if (biped) return "3ds Max Biped";
     if (has("thigh.l") || has("def-thigh.l") || has("org-thigh.l")) return "Blender Rigify/metarig";
     if (has("lefttoe") && has("leftupleg")) return "LAFAN1";
     if (has("lefttoebase") && has("leftupleg")) return "Mixamo (no namespace)";

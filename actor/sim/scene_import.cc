@@ -2,6 +2,7 @@
 
 #include <assimp/config.h>
 #include <assimp/scene.h>
+#include <mujoco/mujoco.h>
 
 #include <algorithm>
 #include <assimp/Importer.hpp>
@@ -71,24 +72,11 @@ JointPose PoseOf(const Mat4& m) {
   normalise(c[1]);
   c[2] = {c[0][1] * c[1][2] - c[0][2] * c[1][1], c[0][2] * c[1][0] - c[0][0] * c[1][2],
           c[0][0] * c[1][1] - c[0][1] * c[1][0]};
-  // Shepperd's method on the orthonormal matrix with columns c.
-  const double r00 = c[0][0], r11 = c[1][1], r22 = c[2][2];
-  const double trace = r00 + r11 + r22;
-  auto r = [&](int i, int j) { return c[j][i]; };
+  // MuJoCo's conversion, on the orthonormal matrix with columns c (row-major).
+  const mjtNum rotation[9] = {c[0][0], c[1][0], c[2][0], c[0][1], c[1][1],
+                              c[2][1], c[0][2], c[1][2], c[2][2]};
   Quat q;
-  if (trace > 0) {
-    double s = std::sqrt(trace + 1.0) * 2;
-    q = {0.25 * s, (r(2, 1) - r(1, 2)) / s, (r(0, 2) - r(2, 0)) / s, (r(1, 0) - r(0, 1)) / s};
-  } else if (r00 > r11 && r00 > r22) {
-    double s = std::sqrt(1.0 + r00 - r11 - r22) * 2;
-    q = {(r(2, 1) - r(1, 2)) / s, 0.25 * s, (r(0, 1) + r(1, 0)) / s, (r(0, 2) + r(2, 0)) / s};
-  } else if (r11 > r22) {
-    double s = std::sqrt(1.0 + r11 - r00 - r22) * 2;
-    q = {(r(0, 2) - r(2, 0)) / s, (r(0, 1) + r(1, 0)) / s, 0.25 * s, (r(1, 2) + r(2, 1)) / s};
-  } else {
-    double s = std::sqrt(1.0 + r22 - r00 - r11) * 2;
-    q = {(r(1, 0) - r(0, 1)) / s, (r(0, 2) + r(2, 0)) / s, (r(1, 2) + r(2, 1)) / s, 0.25 * s};
-  }
+  mju_mat2Quat(q.data(), rotation);
   return {Normalized(q), {m.m[0][3], m.m[1][3], m.m[2][3]}};
 }
 
@@ -396,18 +384,15 @@ class Scene {
       }
     }
     std::vector<Mat4> rest_world(nodes.size());
-    std::vector<bool> from_bind(nodes.size(), false);
     int bound = 0;
     for (size_t j = 0; j < nodes.size(); ++j) {
       const int parent = out.joints[j].parent;
       auto it = bind.find(out.joints[j].name);
       if (it != bind.end()) {
         rest_world[j] = it->second;
-        from_bind[j] = true;
         ++bound;
       } else {
         rest_world[j] = Mul(parent < 0 ? above : rest_world[parent], local[j]);
-        from_bind[j] = parent >= 0 && from_bind[parent];
       }
     }
     if (bound > 0) {
