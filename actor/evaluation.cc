@@ -25,6 +25,11 @@ std::string EvaluationResult::ToJson(const RobustnessResult* pushes) const {
                         {"end_effector", end_effector},
                         {"com", com},
                         {"root", root}}}};
+  if (steering) {
+    j["reward_terms"]["task"] = task;
+    j["steering"] = {{"speed_error", speed_error},
+                     {"heading_error_deg", heading_error * 180 / M_PI}};
+  }
   if (pushes) j["perturbation"] = nlohmann::json::parse(pushes->ToJson());
   return j.dump(2);
 }
@@ -36,6 +41,7 @@ EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& s
   worker.SetPolicy(snapshot);
   EvaluationResult r;
   r.episodes = episodes;
+  r.steering = env.steering.enabled();
   for (int i = 0; i < episodes; ++i) {
     sim::EpisodeStats e = worker.RunEpisode(/*deterministic=*/true);
     r.mean_return += e.episode_return / episodes;
@@ -47,6 +53,9 @@ EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& s
     r.end_effector += e.mean_terms.end_effector / episodes;
     r.com += e.mean_terms.com / episodes;
     r.root += e.mean_terms.root / episodes;
+    r.task += e.mean_terms.task / episodes;
+    r.speed_error += e.speed_error / episodes;
+    r.heading_error += e.heading_error / episodes;
   }
   return r;
 }

@@ -18,6 +18,9 @@ struct EvaluationResult {
   double episode_length = 0;  // steps
   double fall_rate = 0;
   double rotation = 0, velocity = 0, end_effector = 0, com = 0, root = 0;
+  // Steering: the task term and the per-step speed (m/s) and heading (rad) errors.
+  bool steering = false;
+  double task = 0, speed_error = 0, heading_error = 0;
   // With push trials, they go under "perturbation".
   std::string ToJson(const struct RobustnessResult* pushes = nullptr) const;
 };

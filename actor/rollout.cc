@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "actor/sim/motion_io.h"
+#include "actor/sim/motion_set.h"
 
 namespace ragdoll::actor {
 namespace {
@@ -21,6 +21,9 @@ v1::EpisodeSummary Summary(const sim::EpisodeStats& e) {
   s.set_com(e.mean_terms.com);
   s.set_root(e.mean_terms.root);
   s.set_fell(e.fell());
+  s.set_task(e.mean_terms.task);
+  s.set_speed_error(e.speed_error);
+  s.set_heading_error(e.heading_error);
   return s;
 }
 
@@ -30,9 +33,9 @@ RolloutWorker::RolloutWorker(const sim::EnvConfig& config, int environments, int
                              uint64_t seed, std::string actor_id)
     : time_horizon_(time_horizon), actor_id_(std::move(actor_id)), noise_(seed * 7919 + 1) {
   auto character = sim::Character::Load(config.character, config.physics_dt());
-  auto clip = std::make_shared<const sim::MotionClip>(sim::LoadMotion(config.motion));
+  auto motions = sim::LoadMotionSet(config, *character);
   for (int i = 0; i < environments; ++i) {
-    envs_.push_back(std::make_unique<sim::ImitationEnv>(character, clip, config, seed + i));
+    envs_.push_back(std::make_unique<sim::ImitationEnv>(character, motions, config, seed + i));
   }
   const int O = spec().observation_size;
   observations_.resize(static_cast<size_t>(environments) * O);
@@ -107,6 +110,11 @@ sim::StepResult RolloutWorker::StepFirst(bool deterministic) {
 
 void RolloutWorker::ResetFirst(double phase) {
   envs_[0]->ResetAtPhase(phase, observations_.data());
+}
+
+void RolloutWorker::SetCommandFirst(int entry) {
+  envs_[0]->SetCommand(entry);
+  envs_[0]->Observe(observations_.data());
 }
 
 std::vector<v1::TrajectorySegment> RolloutWorker::Collect() {

@@ -43,6 +43,8 @@ class RolloutWorker {
   sim::ImitationEnv& environment(int k) { return *envs_[k]; }
   sim::StepResult StepFirst(bool deterministic);
   void ResetFirst(double phase);
+  // Steering: gives environment 0 a command (a motion-set entry) and refreshes its observation.
+  void SetCommandFirst(int entry);
 
   int64_t samples() const { return samples_; }
 

@@ -8,8 +8,7 @@
 #include <thread>
 
 #include "actor/sim/character.h"
-#include "actor/sim/clip_report.h"
-#include "actor/sim/motion_io.h"
+#include "actor/sim/motion_set.h"
 #include "common/config_section.h"
 
 namespace ragdoll::cli {
@@ -66,13 +65,21 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
   if (e.environment.contacts_from_clip) {
     auto character = sim::Character::Load(e.environment.character, e.environment.physics_dt());
     e.environment.allowed_contacts =
-        sim::ClipGroundContacts(sim::LoadMotion(e.environment.motion), *character);
+        sim::GroundContacts(*sim::LoadMotionSet(e.environment, *character), *character);
   }
 
   // The effective configuration: the file with its paths made absolute and the contacts
   // resolved, so that it still works from the run folder (evaluation reads it from there).
   YAML::Node node = YAML::LoadFile(path);
-  node["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
+  if (e.environment.steering.enabled()) {
+    YAML::Node items = node["environment"]["steering"]["motions"];
+    for (size_t i = 0; i < e.environment.steering.motions.size(); ++i) {
+      items[i]["motion"] =
+          std::filesystem::absolute(e.environment.steering.motions[i].motion).string();
+    }
+  } else {
+    node["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
+  }
   node["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
   YAML::Node contacts(YAML::NodeType::Sequence);
   for (const auto& body : e.environment.allowed_contacts) contacts.push_back(body);

@@ -82,18 +82,58 @@ json ActionAxes(const sim::Character& character) {
 
 // The reference pose's hinge angles at clip times 0, dt, 2 dt, ... through one pass of the clip:
 // the centre of each offset-mode action, and the pose to start an episode in.
-json ReferenceAngles(const sim::ImitationEnv& env, double dt) {
-  const mjModel* m = env.character().model();
-  std::vector<double> qpos(m->nq), qvel(m->nv);
-  const int steps = static_cast<int>(std::ceil(env.clip().duration() / dt - 1e-9));
+json ReferenceAngles(const sim::Character& character, const sim::MotionClip& clip, double dt) {
+  std::vector<double> qpos(character.model()->nq);
+  const int steps = static_cast<int>(std::ceil(clip.duration() / dt - 1e-9));
   json rows = json::array();
   for (int i = 0; i <= steps; ++i) {
-    env.ReferenceState(i * dt, qpos.data(), qvel.data());
+    character.PoseToQpos(clip.Sample(i * dt), qpos.data());
     json row = json::array();
-    for (const auto& h : env.character().hinges()) row.push_back(qpos[h.qpos_address]);
+    for (const auto& h : character.hinges()) row.push_back(qpos[h.qpos_address]);
     rows.push_back(row);
   }
   return rows;
+}
+
+// The steering task's contract: the commands, the clips that demonstrate them, the transitions,
+// and how the command part of the observation is built.
+json Steering(const sim::EnvConfig& c, const sim::ImitationEnv& env) {
+  const sim::MotionSet& set = env.motion_set();
+  json clips = json::array();
+  for (const sim::MotionSetEntry& e : set.entries()) {
+    json clip = {{"name", e.name},
+                 {"duration", e.clip->duration()},
+                 {"loop", e.clip->loop()},
+                 {"hinge_angles", ReferenceAngles(env.character(), *e.clip, c.control_dt())}};
+    if (e.transition()) {
+      clip["transition"] = {{"from", set.entry(e.from).name}, {"to", set.entry(e.to).name}};
+    } else {
+      clip["command"] = {{"forward", e.command.forward},
+                         {"left", e.command.left},
+                         {"turn_deg_per_s", e.command.turn * 180 / M_PI}};
+    }
+    clips.push_back(clip);
+  }
+  return {{"clips", clips},
+          {"command_inputs",
+           "observation entries after phase.cos: command.forward, command.left = the commanded "
+           "velocity (m/s, the clip's command) turned into the character's heading frame, i.e. by "
+           "(desired_heading - heading); command.turn = the command's turn rate (rad/s); "
+           "command.heading_error.sin, .cos of (desired_heading - heading); then reference.<clip> "
+           "for every clip in clips order: 1 for the clip whose hinge_angles the actions offset "
+           "now, else 0. desired_heading starts at the character's heading and advances by "
+           "turn * dt every control step."},
+          {"switching",
+           "on a new command the reference becomes its clip (or the transition clip from the old "
+           "command's clip, when one is listed, which hands over to its `to` clip when it ends), "
+           "entered at the key frame whose joint rotations are closest to the character's; the "
+           "phase entries then follow that clip"},
+          {"task_reward",
+           {{"velocity_weight", c.steering.velocity_weight},
+            {"heading_weight", c.steering.heading_weight},
+            {"velocity_scale", c.steering.velocity_scale},
+            {"heading_scale", c.steering.heading_scale},
+            {"velocity_window", c.steering.velocity_window}}}};
 }
 
 json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions& o,
@@ -158,6 +198,7 @@ json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions
         {"sha256", learner::Sha256Hex(ReadFile(c.motion))},
         {"duration", env.clip().duration()},
         {"loop", env.clip().loop()}}},
+      {"steering", c.steering.enabled() ? Steering(c, env) : json(nullptr)},
       {"control",
        {{"frequency", c.control_frequency},
         {"dt", c.control_dt()},
@@ -202,7 +243,7 @@ json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions
          "the clip's hinge angles (radians, action.axes order) at clip times 0, dt, 2 dt, ... "
          "through one pass; episodes in training start in the clip's pose and velocities at a "
          "random phase"},
-        {"hinge_angles", ReferenceAngles(env, c.control_dt())}}},
+        {"hinge_angles", ReferenceAngles(character, env.clip(), c.control_dt())}}},
       {"episode",
        {{"allowed_contacts", env.allowed_contacts()},
         {"max_root_distance", c.max_root_distance},

@@ -1,6 +1,9 @@
 #include "cli/launcher.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,10 +17,24 @@
 #include <vector>
 
 #include "cli/experiment.h"
+#include "common/config_section.h"
 
 namespace ragdoll::cli {
 namespace fs = std::filesystem;
 namespace {
+
+// Whether a TCP port can be bound on this machine's loopback (nothing else listens there).
+bool PortFree(int port) {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return true;  // cannot tell; the broker will say
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  const bool free = bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+  close(fd);
+  return free;
+}
 
 struct Child {
   std::string role;
@@ -78,6 +95,18 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
   const std::string keys = options.keys.empty() ? e.keys_dir : options.keys;
   e.broker.endpoints.curve = LoadCurve(keys, "broker");
   CheckTransportSecurity(e.broker.endpoints, options.insecure);
+  // Another run on this machine holds the ports: its broker would take this run's learner and
+  // actors (their run ids keep the data apart, but nothing would train). Say so before starting.
+  const Endpoints& ports = e.broker.endpoints;
+  for (int port : {ports.trajectory_port, ports.control_port, ports.snapshot_port,
+                   ports.learner_port, ports.learner_snapshot_port}) {
+    if (!PortFree(port)) {
+      throw ConfigError("ragdoll train: port " + std::to_string(port) +
+                        " is in use (another training on this machine?); give this run its own "
+                        "ports with --port-base, e.g. --port-base " +
+                        std::to_string(ports.trajectory_port + 100));
+    }
+  }
   const std::string run_id = options.run_id.empty() ? DefaultRunId(e.name) : options.run_id;
   const fs::path run_dir = fs::path(options.runs_dir) / run_id;
   fs::create_directories(run_dir);
@@ -148,7 +177,7 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
   }
 
   int exit_code = 0;
-  int group_restarts = 0;
+  int group_restarts = 0, broker_restarts = 0;
   const int kMaxGroupRestarts = 5;
   while (!stop.load()) {
     int status = 0;
@@ -157,7 +186,7 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
       continue;
     }
-    bool group_broke = false;
+    bool group_broke = false, broker_failed = false;
     for (auto& c : children) {
       if (c.pid != pid) continue;
       c.running = false;
@@ -176,7 +205,25 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
         std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
                      WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
                      c.role == "broker" ? "" : "; training continues with the others");
+        // Without its broker nothing trains, and the others would wait on it forever.
+        if (c.role == "broker" && !stop.load()) broker_failed = true;
       }
+    }
+    if (broker_failed) {
+      // Actors and learner reconnect to a restarted broker on their own (the chaos test shows
+      // it); a broker that cannot stay up stops the run.
+      if (broker_restarts == kMaxGroupRestarts) {
+        std::fprintf(stderr, "ragdoll train: the broker stopped %d times; giving up\n",
+                     kMaxGroupRestarts + 1);
+        exit_code = 1;
+        break;
+      }
+      ++broker_restarts;
+      std::fprintf(stderr, "ragdoll train: restarting the broker (restart %d of at most %d)\n",
+                   broker_restarts, kMaxGroupRestarts);
+      launch("broker", args("broker", options.insecure ? std::vector<std::string>{"--insecure"}
+                                                       : std::vector<std::string>{}));
+      continue;
     }
     if (group_broke) {
       if (group_restarts == kMaxGroupRestarts) {

@@ -117,7 +117,27 @@ const CurveSpec kCurves[] = {
     {"end_effector", "reward term: end_effector (hands and feet)", "per-step mean, 0-1", 1.0},
     {"com", "reward term: com (centre of mass)", "per-step mean, 0-1", 1.0},
     {"root", "reward term: root (root pose and velocity)", "per-step mean, 0-1", 1.0},
+    // The steering task's, plotted only when some run has it.
+    {"task", "steering task term (velocity and heading tracking, weighted)", "per-step mean", kNaN},
+    {"speed_error", "steering: speed error |v - v*|", "m/s", kNaN},
+    {"heading_error", "steering: heading error", "rad", kNaN},
 };
+
+// Whether a curve has anything to show: the steering curves only for steering runs.
+bool Shown(const CurveSpec& spec, const std::vector<RunReport>& runs) {
+  if (std::string(spec.column) != "task" && std::string(spec.column) != "speed_error" &&
+      std::string(spec.column) != "heading_error") {
+    return true;
+  }
+  for (const auto& run : runs) {
+    if (const auto* y = run.metrics.Column(spec.column)) {
+      for (double v : *y) {
+        if (std::isfinite(v) && v != 0) return true;
+      }
+    }
+  }
+  return false;
+}
 
 // The SVG's layout, px. Each plot sits in a cell; two cells a row (samples, wall time).
 constexpr double kSvgWidth = 1200;
@@ -669,7 +689,11 @@ std::string CurvesSvg(const std::vector<RunReport>& runs) {
   }
   const double headings_top = ly + 14;
   const double plots_top = headings_top + kHeadingRow;
-  const double height = plots_top + kCellHeight * std::size(kCurves);
+  std::vector<const CurveSpec*> shown;
+  for (const CurveSpec& spec : kCurves) {
+    if (Shown(spec, runs)) shown.push_back(&spec);
+  }
+  const double height = plots_top + kCellHeight * static_cast<double>(shown.size());
 
   std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + Format("%g", kSvgWidth) +
                     "\" height=\"" + Format("%g", height) + "\" viewBox=\"0 0 " +
@@ -683,10 +707,10 @@ std::string CurvesSvg(const std::vector<RunReport>& runs) {
          Format("%g", headings_top + 18) +
          "\" font-size=\"15\" font-weight=\"bold\" fill=\"#222\">against wall time "
          "(learner sessions added up)</text>\n";
-  for (size_t i = 0; i < std::size(kCurves); ++i) {
+  for (size_t i = 0; i < shown.size(); ++i) {
     const double oy = plots_top + kCellHeight * static_cast<double>(i);
-    Plot(svg, 0, oy, kCurves[i], samples_unit, samples_axis, runs, curves);
-    Plot(svg, kCellWidth, oy, kCurves[i], time_unit, time_axis, runs, curves);
+    Plot(svg, 0, oy, *shown[i], samples_unit, samples_axis, runs, curves);
+    Plot(svg, kCellWidth, oy, *shown[i], time_unit, time_axis, runs, curves);
   }
   svg += "</svg>\n";
   return svg;

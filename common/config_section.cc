@@ -100,6 +100,21 @@ ConfigSection ConfigSection::Section(const std::string& key) const {
   return ConfigSection(value, file_, base_dir_, prefix, value.Mark().line + 1);
 }
 
+std::vector<ConfigSection> ConfigSection::SectionList(const std::string& key) const {
+  YAML::Node value = Lookup(key);
+  std::vector<ConfigSection> out;
+  if (!value) return out;
+  if (!value.IsSequence()) Fail(key, "expected a list of mappings");
+  std::string prefix = prefix_.empty() ? key : prefix_ + "." + key;
+  for (size_t i = 0; i < value.size(); ++i) {
+    YAML::Node item = value[i];
+    if (!item.IsMap()) Fail(key, "item " + std::to_string(i + 1) + ": expected a mapping of keys");
+    out.push_back(ConfigSection(item, file_, base_dir_, prefix + "[" + std::to_string(i) + "]",
+                                item.Mark().line + 1));
+  }
+  return out;
+}
+
 std::string ConfigSection::Where(const std::string& key) const {
   int line = line_;
   if (node_.IsMap()) {

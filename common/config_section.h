@@ -47,6 +47,8 @@ class ConfigSection {
 
   // A nested mapping (an empty one when absent). Its keys are checked by its own Finish().
   ConfigSection Section(const std::string& key) const;
+  // A list of mappings (empty when absent), each named key[i] in error messages.
+  std::vector<ConfigSection> SectionList(const std::string& key) const;
 
   // Throws ConfigError naming every key of this mapping that was never read, with a hint.
   void Finish() const;

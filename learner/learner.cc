@@ -26,6 +26,9 @@ void EpisodeStatsSum::Add(const v1::EpisodeSummary& e) {
   end_effector += e.end_effector();
   com += e.com();
   root += e.root();
+  task += e.task();
+  speed_error += e.speed_error();
+  heading_error += e.heading_error();
 }
 
 Learner::Learner(const TrainerConfig& config, int observation_size, int action_size,
@@ -330,16 +333,18 @@ UpdateStats Learner::Update() {
   int64_t group_samples = B;
   if (group_ != nullptr) {
     EpisodeStatsSum& e = episodes_;
-    torch::Tensor sums = torch::tensor({static_cast<double>(B), static_cast<double>(e.episodes),
-                                        e.episode_return, e.normalized_return, e.length, e.falls,
-                                        e.rotation, e.velocity, e.end_effector, e.com, e.root},
-                                       torch::kFloat64);
+    torch::Tensor sums =
+        torch::tensor({static_cast<double>(B), static_cast<double>(e.episodes), e.episode_return,
+                       e.normalized_return, e.length, e.falls, e.rotation, e.velocity,
+                       e.end_effector, e.com, e.root, e.task, e.speed_error, e.heading_error},
+                      torch::kFloat64);
     group_->Sum(sums);
     group_samples = static_cast<int64_t>(sums[0].item<double>());
     e.episodes = static_cast<int64_t>(sums[1].item<double>());
     double* fields[] = {&e.episode_return, &e.normalized_return, &e.length, &e.falls, &e.rotation,
-                        &e.velocity,       &e.end_effector,      &e.com,    &e.root};
-    for (int i = 0; i < 9; ++i) *fields[i] = sums[2 + i].item<double>();
+                        &e.velocity,       &e.end_effector,      &e.com,    &e.root,  &e.task,
+                        &e.speed_error,    &e.heading_error};
+    for (int i = 0; i < 12; ++i) *fields[i] = sums[2 + i].item<double>();
   }
   samples_ += group_samples;
   stats.samples = group_samples;

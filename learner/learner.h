@@ -37,6 +37,7 @@ struct EpisodeStatsSum {
   int64_t episodes = 0;
   double episode_return = 0, normalized_return = 0, length = 0, falls = 0;
   double rotation = 0, velocity = 0, end_effector = 0, com = 0, root = 0;
+  double task = 0, speed_error = 0, heading_error = 0;  // the steering task's
   void Add(const v1::EpisodeSummary& e);
   double Mean(double sum) const { return episodes ? sum / episodes : 0.0; }
 };

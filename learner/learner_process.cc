@@ -101,10 +101,10 @@ struct LearnerMetrics {
                                       "size limit); training went on")),
         idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
                                "Wall time spent waiting for segments (nothing to do)")) {
-    for (const char* term : {"rotation", "velocity", "end_effector", "com", "root"}) {
+    for (const char* term : {"rotation", "velocity", "end_effector", "com", "root", "task"}) {
       terms.push_back(&m.Gauge("ragdoll_episode_reward_term",
-                               "Mean per-step value (0..1) of one imitation reward term, last "
-                               "PPO iteration",
+                               "Mean per-step value (0..1) of one reward term (the imitation "
+                               "terms and the steering task's weighted term), last PPO iteration",
                                {{"term", term}}));
     }
     for (int r = 1; r <= static_cast<int>(wire::Rejection::kRunId); ++r) {
@@ -416,7 +416,8 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     csv << "iteration,version,samples,elapsed_s,samples_per_s,episodes,mean_return,"
            "normalized_return,episode_length,fall_rate,rotation,velocity,end_effector,com,root,"
            "policy_loss,value_loss,entropy,approx_kl,clip_fraction,explained_variance,"
-           "learning_rate,update_s,stale_dropped,rejected,idle_fraction,update_kl\n";
+           "learning_rate,update_s,stale_dropped,rejected,idle_fraction,update_kl,task,speed_error,"
+           "heading_error\n";
   }
 
   const auto start = Clock::now();
@@ -507,7 +508,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       metrics.fall_ratio.Set(e.Mean(e.falls));
       // Totals are the group's: replica 0 counts them, so sums over replicas stay right.
       if (leader) metrics.episodes.Increment(static_cast<double>(e.episodes));
-      const double terms[] = {e.rotation, e.velocity, e.end_effector, e.com, e.root};
+      const double terms[] = {e.rotation, e.velocity, e.end_effector, e.com, e.root, e.task};
       for (size_t i = 0; i < metrics.terms.size(); ++i) metrics.terms[i]->Set(e.Mean(terms[i]));
       metrics.policy_loss.Set(u.policy_loss);
       metrics.value_loss.Set(u.value_loss);
@@ -532,7 +533,8 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
             << e.Mean(e.root) << "," << u.policy_loss << "," << u.value_loss << "," << u.entropy
             << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
             << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
-            << rejected_total << "," << idle_fraction << "," << u.update_kl << "\n";
+            << rejected_total << "," << idle_fraction << "," << u.update_kl << "," << e.Mean(e.task)
+            << "," << e.Mean(e.speed_error) << "," << e.Mean(e.heading_error) << "\n";
         csv.flush();
       }
       learner.ResetEpisodeStats();

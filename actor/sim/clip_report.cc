@@ -56,6 +56,7 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
                    clip.frame(r.frames - 1).root_position[1] - clip.frame(0).root_position[1],
                    clip.frame(r.frames - 1).root_position[2] - clip.frame(0).root_position[2]};
   r.cycle_displacement = clip.cycle_displacement();
+  r.cycle_yaw = clip.cycle_yaw();
   r.root_height_min = INFINITY;
   r.root_height_max = -INFINITY;
   r.lowest_point = INFINITY;
@@ -202,8 +203,9 @@ std::string ClipReport::ToText() const {
                 root_travel[0], root_travel[1], root_travel[2], root_path_length);
   out << line;
   if (loop) {
-    std::snprintf(line, sizeof(line), "per cycle       %+.3f %+.3f %+.3f m\n",
-                  cycle_displacement[0], cycle_displacement[1], cycle_displacement[2]);
+    std::snprintf(line, sizeof(line), "per cycle       %+.3f %+.3f %+.3f m, turn %+.1f deg\n",
+                  cycle_displacement[0], cycle_displacement[1], cycle_displacement[2],
+                  cycle_yaw * 180 / M_PI);
     out << line;
   }
   std::snprintf(line, sizeof(line), "root height     %.3f .. %.3f m; lowest geometry %+.1f cm\n",
@@ -250,6 +252,7 @@ std::string ClipReport::ToJson() const {
   j["root_travel"] = root_travel;
   j["root_path_length"] = root_path_length;
   j["cycle_displacement"] = cycle_displacement;
+  j["cycle_yaw"] = cycle_yaw;
   j["root_height"] = {root_height_min, root_height_max};
   j["lowest_point"] = lowest_point;
   j["foot_contact"] = {{"right", contact_right}, {"left", contact_left}};

@@ -28,6 +28,7 @@ struct ClipReport {
   Vec3 root_travel = {0, 0, 0};         // last frame's root position minus the first's
   double root_path_length = 0;          // horizontal distance the root covers, metres
   Vec3 cycle_displacement = {0, 0, 0};  // a looping clip's root displacement per cycle
+  double cycle_yaw = 0;                 // and its turn per cycle, radians (counter-clockwise)
   double root_height_min = 0, root_height_max = 0;
   double contact_right = 0, contact_left = 0;  // fraction of frames the foot is on the floor
   // Every body whose geometry comes within 2 cm of the floor in some key frame, in skeleton

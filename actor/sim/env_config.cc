@@ -1,6 +1,9 @@
 #include "actor/sim/env_config.h"
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <set>
 
 #include "actor/sim/skeleton.h"
 #include "common/config_section.h"
@@ -21,13 +24,94 @@ double NonNegative(const ConfigSection& s, const std::string& key, double fallba
   return v;
 }
 
+std::string Stem(const std::string& path) { return std::filesystem::path(path).stem().string(); }
+
+void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
+  if (!parent.Has("steering")) return;
+  ConfigSection s = parent.Section("steering");
+  std::vector<ConfigSection> items = s.SectionList("motions");
+  if (items.empty()) s.Fail("motions", "required: the clips of the motion set, at least one");
+  std::set<std::string> names;
+  for (const ConfigSection& i : items) {
+    MotionSetItem item;
+    item.motion = i.GetPath("motion", "");
+    if (item.motion.empty()) i.Fail("motion", "required: the clip file");
+    item.mirror = i.Get<bool>("mirror", false);
+    item.name = i.Get<std::string>("name", Stem(item.motion) + (item.mirror ? "_mirrored" : ""));
+    if (!names.insert(item.name).second) {
+      i.Fail("name", "'" + item.name + "' names two clips of the set; give each its own `name`");
+    }
+    if (i.Has("command")) {
+      ConfigSection command = i.Section("command");
+      item.command_from_clip = false;
+      item.command.forward = command.Get<double>("forward", 0.0);
+      item.command.left = command.Get<double>("left", 0.0);
+      item.command.turn = command.Get<double>("turn", 0.0) * M_PI / 180;  // deg/s in the file
+      for (double v : {item.command.forward, item.command.left, item.command.turn}) {
+        if (!std::isfinite(v)) i.Fail("command", "must hold finite numbers");
+      }
+      command.Finish();
+    }
+    item.from = i.Get<std::string>("from", "");
+    item.to = i.Get<std::string>("to", "");
+    if (item.from.empty() != item.to.empty()) {
+      i.Fail(item.from.empty() ? "from" : "to",
+             "a transition needs both `from` and `to` (the clips it leads between)");
+    }
+    if (item.transition() && !item.command_from_clip) {
+      i.Fail("command", "a transition's command is its `to` clip's");
+    }
+    i.Finish();
+    c->motions.push_back(std::move(item));
+  }
+  int commands = 0;
+  for (const MotionSetItem& item : c->motions) {
+    if (!item.transition()) {
+      ++commands;
+      continue;
+    }
+    for (const std::string* end : {&item.from, &item.to}) {
+      auto it = std::find_if(c->motions.begin(), c->motions.end(),
+                             [&](const MotionSetItem& m) { return m.name == *end; });
+      if (it == c->motions.end() || it->transition()) {
+        s.Fail("motions", "transition '" + item.name + "' names '" + *end +
+                              "', which is not a (non-transition) clip of the set");
+      }
+    }
+  }
+  if (commands == 0) s.Fail("motions", "needs at least one clip that is not a transition");
+  ConfigSection interval = s.Section("command_interval");
+  c->command_interval_min = Positive(interval, "min", c->command_interval_min);
+  c->command_interval_max = Positive(interval, "max", c->command_interval_max);
+  if (c->command_interval_max < c->command_interval_min) {
+    interval.Fail("max", "must be at least `min`");
+  }
+  interval.Finish();
+  ConfigSection task = s.Section("task");
+  c->velocity_weight = NonNegative(task, "velocity_weight", c->velocity_weight);
+  c->heading_weight = NonNegative(task, "heading_weight", c->heading_weight);
+  c->velocity_scale = NonNegative(task, "velocity_scale", c->velocity_scale);
+  c->heading_scale = NonNegative(task, "heading_scale", c->heading_scale);
+  c->velocity_window = Positive(task, "velocity_window", c->velocity_window);
+  task.Finish();
+  s.Finish();
+}
+
 }  // namespace
 
 EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_character) {
   EnvConfig c;
   c.character = s.GetPath("character", default_character);
   c.motion = s.GetPath("motion", "");
-  if (c.motion.empty()) s.Fail("motion", "required: the reference clip to imitate");
+  ReadSteering(s, &c.steering);
+  if (c.steering.enabled()) {
+    if (!c.motion.empty()) {
+      s.Fail("motion", "with a steering section the clips are its `motions`; remove `motion`");
+    }
+    c.motion = c.steering.motions.front().motion;
+  } else if (c.motion.empty()) {
+    s.Fail("motion", "required: the reference clip to imitate (or a `steering` motion set)");
+  }
   c.control_frequency = Positive(s, "control_frequency", c.control_frequency);
   c.substeps = s.Get<int>("substeps", c.substeps);
   if (c.substeps < 1) s.Fail("substeps", "must be at least 1");

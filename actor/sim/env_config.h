@@ -28,6 +28,50 @@ enum class ReferenceSync {
   kPositionAndHeading,  // and it turns to the character's heading
 };
 
+// What a steerable character is told to do, in the frame of its desired heading: walk at this
+// planar velocity and turn at this rate. The desired heading turns with `turn`.
+struct Command {
+  double forward = 0;  // m/s along the desired heading
+  double left = 0;     // m/s to its left
+  double turn = 0;     // rad/s, counter-clockwise seen from above
+};
+
+// One clip of a steering motion set (an item of `steering.motions`).
+struct MotionSetItem {
+  std::string name;     // how commands, scripts and transitions name it; default: the file's stem
+  std::string motion;   // clip file (any format LoadMotion reads)
+  bool mirror = false;  // left and right swapped: strafe right from strafe left
+  // The command the clip demonstrates; measured from the clip (its mean velocity in its own
+  // heading frame and its mean turn rate) unless given.
+  bool command_from_clip = true;
+  Command command;
+  // A transition clip (one that does not loop) plays when the command changes from the item
+  // named `from` to the one named `to`, and hands over to `to` when it ends. Both or neither.
+  std::string from, to;
+  bool transition() const { return !to.empty(); }
+};
+
+// The steering task (the `steering:` section): one policy follows commands, imitating the
+// motion-set clip that demonstrates the current command, rewarded also for tracking the
+// commanded velocity and heading (DeepMimic's imitation + task reward).
+struct SteeringConfig {
+  std::vector<MotionSetItem> motions;  // empty: no steering; the single `motion` is imitated
+  // During training the command changes at uniformly random intervals in [min, max] seconds,
+  // and at every reset.
+  double command_interval_min = 2.0;
+  double command_interval_max = 5.0;
+  // Task reward: velocity_weight * exp(-velocity_scale |v - v*|^2) +
+  // heading_weight * exp(-heading_scale (heading - desired)^2), v the travel velocity averaged
+  // over velocity_window seconds (one step of a walk), in m/s and radians.
+  double velocity_weight = 0.3;
+  double heading_weight = 0.2;
+  double velocity_scale = 4.0;
+  double heading_scale = 2.0;
+  double velocity_window = 0.5;
+  bool enabled() const { return !motions.empty(); }
+  double MaxReward() const { return enabled() ? velocity_weight + heading_weight : 0.0; }
+};
+
 struct EnvConfig {
   std::string character;          // MJCF file
   std::string motion;             // reference clip (project format or DeepMimic motion file)
@@ -53,6 +97,7 @@ struct EnvConfig {
       {"right_ankle", 0.2}, {"right_shoulder", 0.3}, {"right_elbow", 0.2},   {"left_hip", 0.5},
       {"left_knee", 0.3},   {"left_ankle", 0.2},     {"left_shoulder", 0.3}, {"left_elbow", 0.2}};
   RewardConfig reward;
+  SteeringConfig steering;
 
   double control_dt() const { return 1.0 / control_frequency; }
   double physics_dt() const { return 1.0 / (control_frequency * substeps); }

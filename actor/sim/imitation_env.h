@@ -12,6 +12,7 @@
 #include "actor/sim/env_config.h"
 #include "actor/sim/imitation_reward.h"
 #include "actor/sim/motion_clip.h"
+#include "actor/sim/motion_set.h"
 
 namespace ragdoll::sim {
 
@@ -49,6 +50,9 @@ struct EpisodeStats {
   int length = 0;
   int max_length = 0;
   RewardTerms mean_terms;  // per-step mean of each term
+  // Steering: per-step means of |v - v*| (m/s) and |heading - desired| (rad); 0 without.
+  double speed_error = 0;
+  double heading_error = 0;
   EpisodeEnd end = EpisodeEnd::kRunning;
   bool fell() const {
     return end == EpisodeEnd::kFell || end == EpisodeEnd::kStrayed || end == EpisodeEnd::kUnstable;
@@ -61,6 +65,10 @@ class ImitationEnv {
   // Character::Load(path, config.physics_dt())). Throws ConfigError for names in the config
   // that the character lacks.
   ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionClip> clip,
+               const EnvConfig& config, uint64_t seed);
+  // With config.steering: the steering task on `motions` (LoadMotionSet). Without, `motions`
+  // holds the one clip.
+  ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionSet> motions,
                const EnvConfig& config, uint64_t seed);
 
   const EnvSpec& spec() const { return spec_; }
@@ -88,6 +96,7 @@ class ImitationEnv {
   void SetState(const double* qpos, const double* qvel);
   const mjData& data() const { return *data_; }
   const Character& character() const { return *character_; }
+  // The clip imitated now (steering: the current command's clip, or a transition).
   const MotionClip& clip() const { return *clip_; }
   // The bodies that may touch the ground (the config's list, or the clip's when it says auto).
   const std::vector<std::string>& allowed_contacts() const { return config_.allowed_contacts; }
@@ -95,6 +104,30 @@ class ImitationEnv {
   double phase() const { return clip_->Phase(time_); }
   int64_t bad_actions() const { return bad_actions_; }
   int64_t unstable_resets() const { return unstable_resets_; }
+
+  // --- steering (EnvConfig::steering); the command is fixed without it ---
+  bool steering() const { return steering_; }
+  const MotionSet& motion_set() const { return *motions_; }
+  // The motion-set entry the current command names, and the one whose clip is imitated now (a
+  // transition while one plays).
+  int command_entry() const { return command_entry_; }
+  int reference_entry() const { return reference_entry_; }
+  const Command& command() const { return command_; }
+  // Commands a script or a player gives: from now on the command changes only through here
+  // (training changes it at random times). Switches the reference clip as a random change does.
+  void SetCommand(int entry);
+  // The yaw the character should face (integrates the command's turn), its own yaw, radians.
+  double desired_heading() const { return desired_heading_; }
+  double heading() const;
+  // Horizontal centre-of-mass velocity averaged over the last velocity_window seconds, world.
+  Vec3 TravelVelocity() const;
+  // |TravelVelocity() - commanded velocity| (m/s) and the heading error wrapped to [-pi, pi].
+  double SpeedError() const;
+  double HeadingError() const;
+  // Rewrites the current observation (after SetCommand, which changes its command part).
+  void Observe(float* observation) const { WriteObservation(observation); }
+  // Seconds since the episode started.
+  double episode_time() const { return episode_time_; }
 
   // Joint coordinates and velocities of the reference at clip time `time` (nq and nv values).
   void ReferenceState(double time, double* qpos, double* qvel) const;
@@ -108,6 +141,15 @@ class ImitationEnv {
   // At the start of a new cycle, moves the reference frame onto the character
   // (EnvConfig::reference_sync).
   void SyncReference(double time);
+  // Steering: the reference becomes `entry`'s clip at the time whose pose is closest to the
+  // character's, placed on the character and facing the desired heading.
+  void SwitchReference(int entry);
+  // Steering, after the physics of a step: time, heading, travel history, command changes.
+  void AdvanceTask(double next_time);
+  void StartCommandHistory();
+  void WriteObservation(float* observation) const;
+  double TaskReward(RewardTerms* terms) const;
+  int RandomCommand();
   void Features(const mjData& d, PoseFeatures* out) const;
   // Scores data_ against the reference state already in ref_data_.
   RewardTerms Score();
@@ -115,7 +157,8 @@ class ImitationEnv {
   EpisodeEnd CheckTermination() const;
 
   std::shared_ptr<const Character> character_;
-  std::shared_ptr<const MotionClip> clip_;
+  std::shared_ptr<const MotionSet> motions_;
+  const MotionClip* clip_ = nullptr;  // motions_'s reference_entry_
   EnvConfig config_;
   EnvSpec spec_;
   std::mt19937_64 rng_;
@@ -138,7 +181,22 @@ class ImitationEnv {
   RewardTerms term_sums_;
   int64_t bad_actions_ = 0;
   int64_t unstable_resets_ = 0;
+  // Steering.
+  bool steering_ = false;
+  bool random_commands_ = true;
+  int command_entry_ = 0;
+  int reference_entry_ = 0;
+  Command command_;
+  double desired_heading_ = 0;
+  double episode_time_ = 0;
+  double next_command_time_ = 0;
+  std::vector<Vec3> com_history_;  // ring of the last window + 1 control steps' centre of mass
+  int com_head_ = 0;
+  double error_sums_[2] = {0, 0};  // speed, heading
 };
+
+// Observation entries the steering task adds after ObservationSize(character) (0 without).
+int SteeringObservationSize(const EnvConfig& config);
 
 const char* EpisodeEndName(EpisodeEnd end);
 

@@ -51,7 +51,9 @@ struct RewardTerms {
   double end_effector = 0;
   double com = 0;
   double root = 0;
-  double total = 0;
+  // The steering task's part (velocity and heading tracking, weighted); 0 without steering.
+  double task = 0;
+  double total = 0;  // every weighted term, the task's included
 };
 
 // The squared errors inside each term.

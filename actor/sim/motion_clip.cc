@@ -37,11 +37,12 @@ Quat MotionClip::Renormalize(const Quat& q, int frame, const std::string& field)
 }
 
 MotionClip::MotionClip(std::string name, bool loop, std::vector<double> frame_durations,
-                       std::vector<Pose> frames)
+                       std::vector<Pose> frames, CycleTransform cycle)
     : name_(std::move(name)),
       loop_(loop),
       durations_(std::move(frame_durations)),
-      frames_(std::move(frames)) {
+      frames_(std::move(frames)),
+      cycle_transform_(cycle) {
   if (frames_.size() < 2) {
     throw std::invalid_argument("a clip needs at least two frames, got " +
                                 std::to_string(frames_.size()));
@@ -83,7 +84,32 @@ MotionClip::MotionClip(std::string name, bool loop, std::vector<double> frame_du
     const Vec3& first = frames_.front().root_position;
     const Vec3& last = frames_.back().root_position;
     cycle_displacement_ = {last[0] - first[0], last[1] - first[1], 0};
+    cycle_pivot_ = {first[0], first[1], 0};
+    if (cycle_transform_ == CycleTransform::kPlanar) {
+      cycle_yaw_ = std::remainder(
+          YawOf(frames_.back().root_rotation) - YawOf(frames_.front().root_rotation), 2 * M_PI);
+    }
   }
+}
+
+void MotionClip::ApplyCycles(double cycles, Vec3* position, Quat* rotation) const {
+  if (cycle_yaw_ == 0) {  // a translation
+    for (int k = 0; k < 3; ++k) (*position)[k] += cycles * cycle_displacement_[k];
+    return;
+  }
+  // T^k(p) = c + R^k (p - c) + S_k d, with c the pivot, R the turn by cycle_yaw(), d the
+  // displacement, and S_k = R^0 + ... + R^(k-1) (for k < 0: -(R^k + ... + R^-1)), which as a
+  // complex number is exp(i (k - 1) yaw / 2) sin(k yaw / 2) / sin(yaw / 2).
+  const double turn = cycles * cycle_yaw_;
+  const double c = std::cos(turn), s = std::sin(turn);
+  const double gain = std::sin(turn / 2) / std::sin(cycle_yaw_ / 2);
+  const double along = (cycles - 1) * cycle_yaw_ / 2;
+  const double sc = gain * std::cos(along), ss = gain * std::sin(along);
+  const double x = (*position)[0] - cycle_pivot_[0], y = (*position)[1] - cycle_pivot_[1];
+  const double dx = cycle_displacement_[0], dy = cycle_displacement_[1];
+  (*position)[0] = cycle_pivot_[0] + c * x - s * y + sc * dx - ss * dy;
+  (*position)[1] = cycle_pivot_[1] + s * x + c * y + ss * dx + sc * dy;
+  *rotation = Multiply(AxisAngle({0, 0, 1}, turn), *rotation);
 }
 
 void MotionClip::Locate(double time, int* index, double* alpha, double* cycles) const {
@@ -128,10 +154,10 @@ void MotionClip::SampleInto(double time, Pose* out) const {
   const Pose& a = frames_[i];
   const Pose& b = frames_[i + 1];
   for (int k = 0; k < 3; ++k) {
-    out->root_position[k] = (1 - alpha) * a.root_position[k] + alpha * b.root_position[k] +
-                            cycles * cycle_displacement_[k];
+    out->root_position[k] = (1 - alpha) * a.root_position[k] + alpha * b.root_position[k];
   }
   out->root_rotation = Slerp(a.root_rotation, b.root_rotation, alpha);
+  if (cycles != 0) ApplyCycles(cycles, &out->root_position, &out->root_rotation);
   out->joint_rotations.resize(a.joint_rotations.size());
   for (size_t j = 0; j < a.joint_rotations.size(); ++j) {
     out->joint_rotations[j] = Slerp(a.joint_rotations[j], b.joint_rotations[j], alpha);
@@ -151,6 +177,12 @@ void MotionClip::SampleRootVelocity(double time, Vec3* linear, Vec3* angular) co
   const Pose& b = frames_[i + 1];
   double dt = durations_[i];
   for (int k = 0; k < 3; ++k) (*linear)[k] = (b.root_position[k] - a.root_position[k]) / dt;
+  if (cycle_yaw_ != 0 && cycles != 0) {  // the velocity turns with the root
+    const double c = std::cos(cycles * cycle_yaw_), s = std::sin(cycles * cycle_yaw_);
+    const double x = (*linear)[0], y = (*linear)[1];
+    (*linear)[0] = c * x - s * y;
+    (*linear)[1] = s * x + c * y;
+  }
   // Slerp turns at a constant rate about a fixed axis, so the velocity in the current frame
   // equals the one in the key frame's frame.
   *angular = AngularVelocity(a.root_rotation, b.root_rotation, dt);

@@ -45,9 +45,9 @@ std::array<double, N> Numbers(const json& value, const std::string& origin,
 }
 
 MotionClip Build(const std::string& origin, const std::string& name, bool loop,
-                 std::vector<double> durations, std::vector<Pose> frames) {
+                 std::vector<double> durations, std::vector<Pose> frames, CycleTransform cycle) {
   try {
-    return MotionClip(name, loop, std::move(durations), std::move(frames));
+    return MotionClip(name, loop, std::move(durations), std::move(frames), cycle);
   } catch (const std::invalid_argument& e) {
     Fail(origin, e.what());
   }
@@ -103,13 +103,15 @@ MotionClip ParseDeepMimic(const json& doc, const std::string& origin) {
     }
     frames.push_back(std::move(pose));
   }
+  // DeepMimic loops a clip by translating its root only (KinCharacter's cycle root delta).
   return Build(origin, std::filesystem::path(origin).stem().string(), loop, std::move(durations),
-               std::move(frames));
+               std::move(frames), CycleTransform::kTranslation);
 }
 
 MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
-  static const std::set<std::string> kKeys = {"format", "version",        "name",   "description",
-                                              "loop",   "frame_duration", "joints", "frames"};
+  static const std::set<std::string> kKeys = {"format",         "version", "name",
+                                              "description",    "loop",    "cycle",
+                                              "frame_duration", "joints",  "frames"};
   for (const auto& item : doc.items()) {
     if (!kKeys.count(item.key())) Fail(origin, "unknown field '" + item.key() + "'");
   }
@@ -123,6 +125,14 @@ MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
       doc.contains("name") && doc["name"].is_string() ? doc["name"].get<std::string>() : origin;
   if (!doc.contains("loop") || !doc["loop"].is_boolean()) Fail(origin, "loop: expected true/false");
   bool loop = doc["loop"].get<bool>();
+  CycleTransform cycle = CycleTransform::kPlanar;
+  if (doc.contains("cycle")) {
+    const json& c = doc["cycle"];
+    if (c != "planar" && c != "translation") {
+      Fail(origin, "cycle: expected \"planar\" or \"translation\", got " + c.dump());
+    }
+    if (c == "translation") cycle = CycleTransform::kTranslation;
+  }
   if (!doc.contains("frame_duration")) Fail(origin, "frame_duration: missing");
   double frame_duration = Number(doc["frame_duration"], origin, "frame_duration");
   if (frame_duration <= 0) Fail(origin, "frame_duration: must be positive");
@@ -182,7 +192,7 @@ MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
     frames.push_back(std::move(pose));
   }
   std::vector<double> durations(frames.size(), frame_duration);
-  return Build(origin, name, loop, std::move(durations), std::move(frames));
+  return Build(origin, name, loop, std::move(durations), std::move(frames), cycle);
 }
 
 std::string Fixed(double x) {
@@ -238,8 +248,12 @@ std::string FormatClip(const MotionClip& clip, const std::string& description) {
   out << "{\n  \"format\": \"" << kFormatName << "\",\n  \"version\": " << kFormatVersion
       << ",\n  \"name\": " << json(clip.name()).dump()
       << ",\n  \"description\": " << json(description).dump()
-      << ",\n  \"loop\": " << (clip.loop() ? "true" : "false")
-      << ",\n  \"frame_duration\": " << std::setprecision(17) << frame_duration
+      << ",\n  \"loop\": " << (clip.loop() ? "true" : "false");
+  // Written only where it is not the default: files of planar loops stay as they were.
+  if (clip.loop() && clip.cycle_transform() == CycleTransform::kTranslation) {
+    out << ",\n  \"cycle\": \"translation\"";
+  }
+  out << ",\n  \"frame_duration\": " << std::setprecision(17) << frame_duration
       << ",\n  \"joints\": [";
   for (size_t j = 0; j < joints.size(); ++j)
     out << (j ? ", " : "") << "\"" << joints[j].name << "\"";

@@ -1,4 +1,5 @@
-// Writes the project's procedurally authored clips (stand, arms, squat, walk) as clip files.
+// Writes the project's procedurally authored clips (AuthorClips: stand, arms, squat, walk and the
+// steering motion set) as clip files.
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
@@ -10,7 +11,9 @@
 #include "common/config_section.h"
 
 int main(int argc, char** argv) {
-  CLI::App app("Writes the project's authored motion clips (stand, arms, squat, walk).");
+  CLI::App app(
+      "Writes the project's authored motion clips (stand, arms, squat, walk, walk_backward, "
+      "strafe_left, turn_left, walk_start, walk_stop).");
   std::string character_path = ragdoll::sim::DefaultCharacterPath();
   std::string out_dir = std::string(RAGDOLL_ASSETS_DIR) + "/motions";
   app.add_option("--character", character_path, "character MJCF")->capture_default_str();

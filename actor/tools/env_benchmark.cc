@@ -19,7 +19,7 @@
 #include "actor/sim/character.h"
 #include "actor/sim/env_config.h"
 #include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_io.h"
+#include "actor/sim/motion_set.h"
 #include "common/config_section.h"
 #include "common/median.h"
 
@@ -33,7 +33,7 @@ struct Experiment {
   std::string config_path;
   EnvConfig config;
   std::shared_ptr<const Character> character;
-  std::shared_ptr<const MotionClip> clip;
+  std::shared_ptr<const MotionSet> motions;
 };
 
 Experiment LoadExperiment(const std::string& path) {
@@ -42,7 +42,7 @@ Experiment LoadExperiment(const std::string& path) {
   ConfigSection root = ConfigSection::FromFile(path);
   e.config = ReadEnvConfig(root.Section("environment"), sim::DefaultCharacterPath());
   e.character = Character::Load(e.config.character, e.config.physics_dt());
-  e.clip = std::make_shared<const MotionClip>(LoadMotion(e.config.motion));
+  e.motions = LoadMotionSet(e.config, *e.character);
   return e;
 }
 
@@ -55,7 +55,7 @@ struct Recording {
 };
 
 Recording Record(const Experiment& e, int steps, uint64_t seed) {
-  ImitationEnv env(e.character, e.clip, e.config, seed);
+  ImitationEnv env(e.character, e.motions, e.config, seed);
   const mjModel* m = e.character->model();
   const int na = env.spec().action_size;
   std::vector<float> obs(env.spec().observation_size), action(na);
@@ -104,7 +104,7 @@ double RawPhysicsRate(const Experiment& e, const Recording& r) {
 double EnvRate(const Experiment& e, const Recording& r, int k, uint64_t seed) {
   std::vector<std::unique_ptr<ImitationEnv>> envs;
   for (int i = 0; i < k; ++i) {
-    envs.push_back(std::make_unique<ImitationEnv>(e.character, e.clip, e.config, seed));
+    envs.push_back(std::make_unique<ImitationEnv>(e.character, e.motions, e.config, seed));
   }
   const int na = envs[0]->spec().action_size;
   const int no = envs[0]->spec().observation_size;
@@ -130,7 +130,7 @@ struct Baseline {
 
 // PD tracking of the reference pose, no learning: `episodes` episodes from random phases.
 Baseline RunBaseline(const Experiment& e, int episodes, uint64_t seed) {
-  ImitationEnv env(e.character, e.clip, e.config, seed);
+  ImitationEnv env(e.character, e.motions, e.config, seed);
   std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size);
   Baseline b;
   for (int ep = 0; ep < episodes; ++ep) {
@@ -219,9 +219,9 @@ int main(int argc, char** argv) {
       std::printf(
           "baseline %-28s normalised return %.3f  length %5.1f steps (%.2f s)  fall rate %.2f  "
           "terms rot %.3f vel %.3f ee %.3f com %.3f root %.3f\n",
-          e.clip->name().c_str(), b.normalized_return, b.length, b.length * e.config.control_dt(),
-          b.fall_rate, b.terms.rotation, b.terms.velocity, b.terms.end_effector, b.terms.com,
-          b.terms.root);
+          e.motions->entry(0).name.c_str(), b.normalized_return, b.length,
+          b.length * e.config.control_dt(), b.fall_rate, b.terms.rotation, b.terms.velocity,
+          b.terms.end_effector, b.terms.com, b.terms.root);
       std::fflush(stdout);
     }
   } catch (const std::exception& ex) {

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "actor/rollout.h"
-#include "actor/sim/motion_io.h"
+#include "actor/sim/motion_set.h"
 #include "cli/experiment.h"
 #include "common/config_section.h"
 #include "common/median.h"
@@ -48,10 +48,10 @@ int main(int argc, char** argv) {
     // steps; the difference is only the policy: normalisation, the batched forward, sampling and
     // building the segments. Packing the segments for the wire is timed separately.
     auto character = sim::Character::Load(e.environment.character, e.environment.physics_dt());
-    auto clip = std::make_shared<const sim::MotionClip>(sim::LoadMotion(e.environment.motion));
+    auto motions = sim::LoadMotionSet(e.environment, *character);
     std::vector<std::unique_ptr<sim::ImitationEnv>> envs;
     for (int k = 0; k < K; ++k) {
-      envs.push_back(std::make_unique<sim::ImitationEnv>(character, clip, e.environment, 1 + k));
+      envs.push_back(std::make_unique<sim::ImitationEnv>(character, motions, e.environment, 1 + k));
     }
     const int O = worker.spec().observation_size, A = worker.spec().action_size;
     std::vector<float> obs(static_cast<size_t>(K) * O);

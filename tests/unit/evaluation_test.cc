@@ -3,6 +3,10 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <fstream>
+
+#include "actor/command_evaluation.h"
+
 #include "actor/rollout.h"
 #include "common/config_section.h"
 #include "common/policy.h"
@@ -58,6 +62,128 @@ TEST_F(PushTest, RejectsUnknownBodiesAndDirections) {
   push_.body = "root";
   push_.direction = "up";
   EXPECT_THROW(EvaluatePushes(env_, snapshot_, push_, 1), ConfigError);
+}
+
+
+// Scripted commands on a set of two clips that both stand still: "stand" demonstrates standing,
+// "still" claims a 0.5 m/s walk. A policy of zero weights (PD tracking of the reference) stands, so
+// its speed error is ~0 under "stand" and ~0.5 m/s under "still", and only the change back to
+// "stand" succeeds.
+class CommandEvalTest : public ::testing::Test {
+ protected:
+  CommandEvalTest() {
+    const std::string stand = std::string(RAGDOLL_ASSETS_DIR) + "/motions/stand.json";
+    env_.character = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
+    env_.action_mode = sim::ActionMode::kOffset;
+    sim::MotionSetItem item;
+    item.motion = stand;
+    item.name = "stand";
+    env_.steering.motions.push_back(item);
+    item.name = "still";
+    item.command_from_clip = false;
+    item.command = {0.5, 0, 0};
+    env_.steering.motions.push_back(item);
+    env_.motion = stand;
+    torch::manual_seed(3);
+    RolloutWorker probe(env_, 1, 1, 0, "probe");
+    NetworkConfig net;
+    net.hidden_units = {32};
+    GaussianPolicy policy(probe.spec().observation_size, probe.spec().action_size, net);
+    // Zero weights: the mean action is 0, i.e. PD tracking of the reference pose exactly.
+    {
+      torch::NoGradGuard no_grad;
+      for (auto& p : policy->parameters()) p.zero_();
+    }
+    snapshot_ = MakeSnapshot(policy, RunningStats(probe.spec().observation_size), 7, 0);
+    character_ = sim::Character::Load(env_.character, env_.physics_dt());
+    motions_ = sim::LoadMotionSet(env_, *character_);
+  }
+  std::string Script(const std::string& text) {
+    const std::string path = ::testing::TempDir() + "/script.yaml";
+    std::ofstream(path) << text;
+    return path;
+  }
+  sim::EnvConfig env_;
+  v1::PolicySnapshot snapshot_;
+  std::shared_ptr<const sim::Character> character_;
+  std::shared_ptr<const sim::MotionSet> motions_;
+};
+
+TEST_F(CommandEvalTest, ScoresTrackingPerCommandAndTransitions) {
+  // PD tracking alone keeps the ragdoll up for about two seconds: a short script, with tracking
+  // scored 0.25 s after each change and transitions judged over 0.25-0.6 s.
+  CommandEvalConfig c;
+  c.random = false;
+  c.runs = 2;
+  c.settle = 0.25;
+  c.transition_window = 0.6;
+  c.script = ReadCommandScript(Script("duration: 1.8\ncommands:\n  - {at: 0, command: stand}\n"
+                                      "  - {at: 0.6, command: still}\n"
+                                      "  - {at: 1.2, command: stand}\n"),
+                               *motions_);
+  ASSERT_EQ(c.script.changes.size(), 3u);
+  CommandEvalResult r = EvaluateCommands(env_, snapshot_, c, 5);
+  ASSERT_EQ(r.falls, 0) << r.ToTable();
+  EXPECT_EQ(r.runs, 2);
+  EXPECT_NEAR(r.seconds, 3.6, 1e-6);
+  // Settled per run: 0.35 s of "stand" in each of its two spells, 0.35 s of "still".
+  EXPECT_NEAR(r.per_command.at("stand").seconds, 2 * 0.7, 0.07);
+  EXPECT_NEAR(r.per_command.at("still").seconds, 2 * 0.35, 0.07);
+  EXPECT_LT(r.per_command.at("stand").speed_error, 0.1) << r.ToTable();
+  EXPECT_NEAR(r.per_command.at("still").speed_error, 0.5, 0.1) << r.ToTable();
+  EXPECT_LT(r.per_command.at("stand").heading_error, 0.1);
+  EXPECT_GT(r.per_command.at("stand").imitation, 0.5);
+  EXPECT_NEAR(r.moving.seconds, r.per_command.at("still").seconds, 1e-9);
+  ASSERT_EQ(r.transitions.size(), 2u) << r.ToTable();
+  EXPECT_EQ(r.transitions.at("stand->still").count, 2);
+  EXPECT_EQ(r.transitions.at("stand->still").succeeded, 0);
+  EXPECT_EQ(r.transitions.at("still->stand").succeeded, 2);
+  EXPECT_NE(r.ToJson().find("\"stand->still\""), std::string::npos);
+  EXPECT_NE(r.ToTable().find("fall rate 0.000"), std::string::npos) << r.ToTable();
+}
+
+TEST_F(CommandEvalTest, RandomScriptsAreSeededAndChangeTheCommand) {
+  CommandScript a = RandomCommandScript(*motions_, 60, 2, 5, 9);
+  CommandScript b = RandomCommandScript(*motions_, 60, 2, 5, 9);
+  ASSERT_EQ(a.changes.size(), b.changes.size());
+  EXPECT_GE(a.changes.size(), 12u);  // 60 s at one change per 2-5 s
+  EXPECT_LE(a.changes.size(), 31u);
+  for (size_t i = 0; i < a.changes.size(); ++i) {
+    EXPECT_EQ(a.changes[i].at, b.changes[i].at);
+    EXPECT_EQ(a.changes[i].command, b.changes[i].command);
+    if (i > 0) {
+      EXPECT_NE(a.changes[i].command, a.changes[i - 1].command);
+    }
+  }
+  EXPECT_EQ(a.changes.front().at, 0.0);
+}
+
+TEST_F(CommandEvalTest, BadScriptsNameFileLineAndProblem) {
+  auto error = [&](const std::string& text) {
+    try {
+      ReadCommandScript(Script(text), *motions_);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("commands:\n  - {at: 0, command: fly}\n")
+                .find("script.yaml:2: commands[0].command: "
+                      "'fly' is not a command of the run's "
+                      "motion set (stand, still)"),
+            std::string::npos);
+  EXPECT_NE(error("commands:\n  - {at: 1, command: stand}\n").find("the first command starts at 0"),
+            std::string::npos);
+  EXPECT_NE(error("commands:\n  - {at: 0, command: stand}\n  - {at: 0, command: still}\n")
+                .find("times must increase"),
+            std::string::npos);
+  EXPECT_NE(
+      error("duration: 1\ncommands:\n  - {at: 0, command: stand}\n  - {at: 2, command: still}\n")
+          .find("duration: must be after"),
+      std::string::npos);
+  sim::EnvConfig plain = env_;
+  plain.steering.motions.clear();
+  EXPECT_THROW(EvaluateCommands(plain, snapshot_, CommandEvalConfig(), 1), std::invalid_argument);
 }
 
 }  // namespace

@@ -348,6 +348,168 @@ TEST(MotionClip, PhaseWrapsForALoopingClip) {
   EXPECT_NEAR(walk.Phase(-0.25 * d), 0.75, 1e-12);
 }
 
+// --- looping clips that turn ---
+
+// A clip that turns 90 degrees counter-clockwise per 1.2 s cycle along an arc, pitching and
+// rolling a little on the way, its joints moving: 13 frames, the last the first turned by 90
+// degrees about the pivot (0.3, -0.2) and moved by (0.5, 0.4).
+MotionClip TurningClip() {
+  std::vector<Pose> frames;
+  const int n = 12;
+  for (int i = 0; i <= n; ++i) {
+    double u = static_cast<double>(i % n) / n;  // the last frame is the first, moved
+    Pose pose = RestPose({0.3 + 0.5 * u + 0.05 * std::sin(2 * M_PI * u),
+                          -0.2 + 0.4 * u * u + 0.03 * std::sin(4 * M_PI * u),
+                          0.9 + 0.02 * std::cos(2 * M_PI * u)});
+    double yaw = 0.4 + 0.5 * M_PI * u + 0.1 * std::sin(2 * M_PI * u);
+    pose.root_rotation = Multiply(AxisAngle({0, 0, 1}, yaw),
+                                  Multiply(AxisAngle({0, 1, 0}, 0.1 * std::sin(2 * M_PI * u)),
+                                           AxisAngle({1, 0, 0}, 0.05 * std::cos(2 * M_PI * u))));
+    pose.joint_rotations[3] = AxisAngle({0, 1, 0}, 0.5 + 0.4 * std::sin(2 * M_PI * u));
+    pose.joint_rotations[0] = AxisAngle({0.6, 0, 0.8}, 0.2 * std::cos(2 * M_PI * u));
+    if (i == n) {
+      Vec3 p = frames[0].root_position;
+      double x = p[0] - 0.3, y = p[1] + 0.2;
+      pose.root_position = {0.3 + 0.5 - y, -0.2 + 0.4 + x, p[2]};
+      pose.root_rotation = Multiply(AxisAngle({0, 0, 1}, M_PI / 2), frames[0].root_rotation);
+    }
+    frames.push_back(std::move(pose));
+  }
+  return MotionClip("turn", true, std::vector<double>(n + 1, 0.1), std::move(frames));
+}
+
+// The cycle transform, applied `cycles` times by hand: turn by 90 degrees about the first
+// frame's root (0.3, -0.2), then move by the first-to-last displacement (0.5, 0.4); backwards
+// for negative counts.
+void ApplyTurnCycles(int cycles, Vec3* position, Quat* rotation) {
+  for (int c = 0; c < std::abs(cycles); ++c) {
+    double x = (*position)[0], y = (*position)[1];
+    if (cycles > 0) {
+      x -= 0.3;
+      y += 0.2;
+      (*position)[0] = 0.3 + 0.5 - y;
+      (*position)[1] = -0.2 + 0.4 + x;
+    } else {
+      x -= 0.3 + 0.5;
+      y -= -0.2 + 0.4;
+      (*position)[0] = 0.3 + y;
+      (*position)[1] = -0.2 - x;
+    }
+    *rotation = Multiply(AxisAngle({0, 0, 1}, cycles > 0 ? M_PI / 2 : -M_PI / 2), *rotation);
+  }
+}
+
+TEST(MotionClipCycle, ATurningClipLoopsThroughThePlanarTransform) {
+  MotionClip clip = TurningClip();
+  EXPECT_EQ(clip.cycle_transform(), CycleTransform::kPlanar);
+  EXPECT_NEAR(clip.cycle_yaw(), M_PI / 2, 1e-12);
+  ExpectVecNear(clip.cycle_displacement(), {0.5, 0.4, 0}, 1e-12, "displacement");
+  const double d = clip.duration();
+  // Times between key frames: the velocity is the segment's, so a time on a key frame could
+  // land on either side of it after adding whole cycles.
+  for (double t : {0.03, 0.05, 0.37, 0.63, 1.13}) {
+    Pose base = clip.Sample(t);
+    Vec3 linear, angular;
+    clip.SampleRootVelocity(t, &linear, &angular);
+    for (int cycles : {2, 1, -1, -3, 7}) {
+      std::string label = "t " + std::to_string(t) + " cycles " + std::to_string(cycles);
+      Pose expected = base;
+      ApplyTurnCycles(cycles, &expected.root_position, &expected.root_rotation);
+      Pose later = clip.Sample(t + cycles * d);
+      ExpectVecNear(later.root_position, expected.root_position, 1e-9, label);
+      EXPECT_LT(AngleBetween(later.root_rotation, expected.root_rotation), 1e-9) << label;
+      for (size_t j = 0; j < base.joint_rotations.size(); ++j) {
+        EXPECT_LT(AngleBetween(later.joint_rotations[j], base.joint_rotations[j]), 1e-9) << label;
+      }
+      // The linear velocity turns with the cycles; the angular one is in the root's own frame.
+      Vec3 later_linear, later_angular;
+      clip.SampleRootVelocity(t + cycles * d, &later_linear, &later_angular);
+      Vec3 turned = Rotate(AxisAngle({0, 0, 1}, cycles * M_PI / 2), linear);
+      ExpectVecNear(later_linear, turned, 1e-9, label + " linear velocity");
+      ExpectVecNear(later_angular, angular, 1e-9, label + " angular velocity");
+      EXPECT_EQ(clip.SampleVelocity(t + cycles * d).root_linear, later_linear) << label;
+    }
+  }
+  // Seamless: the end of a cycle is the start of the next, which is the last frame.
+  Pose end = clip.Sample(d);
+  ExpectVecNear(end.root_position, clip.frame(12).root_position, 1e-12, "end");
+  EXPECT_LT(AngleBetween(end.root_rotation, clip.frame(12).root_rotation), 1e-12);
+  Pose before = clip.Sample(d - 1e-7), after = clip.Sample(d + 1e-7);
+  ExpectVecNear(before.root_position, after.root_position, 1e-6, "across the seam");
+  EXPECT_LT(AngleBetween(before.root_rotation, after.root_rotation), 1e-5);
+  // Four cycles turn the root all the way round: back where it started, facing the same way.
+  Pose round = clip.Sample(0.37 + 4 * d), start = clip.Sample(0.37);
+  ExpectVecNear(round.root_position, start.root_position, 1e-9, "four cycles");
+  EXPECT_LT(AngleBetween(round.root_rotation, start.root_rotation), 1e-9);
+}
+
+// Without a turn, looping is the translation it always was, to the last bit.
+TEST(MotionClipCycle, WithoutATurnTheRootTranslatesExactlyAsBefore) {
+  std::vector<Pose> frames;
+  for (int i = 0; i <= 10; ++i) {
+    frames.push_back(RestPose({0.13 * i + 0.01 * std::sin(i), 0.02 * std::cos(i), 0.9}));
+    frames.back().root_rotation = AxisAngle({0, 1, 0}, 0.1 * std::sin(i));  // pitch only
+  }
+  frames.back().root_rotation = frames.front().root_rotation;
+  frames.back().root_position[1] = frames.front().root_position[1] + 0.05;
+  MotionClip clip("straight", true, std::vector<double>(11, 0.1), frames);
+  EXPECT_EQ(clip.cycle_yaw(), 0.0);
+  const Vec3 shift = clip.cycle_displacement();
+  const double d = clip.duration();
+  for (double t : {0.0, 0.05, 0.42, 0.99, 2.37, -0.3, -1.61, 13.7}) {
+    // The root as MotionClip sampled it before turning clips: interpolation plus whole cycles
+    // of displacement.
+    double cycles = std::floor(t / d), local = t - cycles * d;
+    int i = std::min(static_cast<int>(local / 0.1), 9);
+    while (i > 0 && clip.frame_time(i) > local) --i;
+    while (i < 9 && clip.frame_time(i + 1) <= local) ++i;
+    double alpha =
+        std::fmin(std::fmax((local - clip.frame_time(i)) / clip.frame_duration(i), 0.0), 1.0);
+    const Pose &a = clip.frame(i), &b = clip.frame(i + 1);
+    Pose sample = clip.Sample(t);
+    for (int k = 0; k < 3; ++k) {
+      double expected =
+          (1 - alpha) * a.root_position[k] + alpha * b.root_position[k] + cycles * shift[k];
+      EXPECT_EQ(sample.root_position[k], expected) << "t " << t << " [" << k << "]";
+    }
+    EXPECT_EQ(sample.root_rotation, Slerp(a.root_rotation, b.root_rotation, alpha)) << "t " << t;
+    Vec3 linear, angular;
+    clip.SampleRootVelocity(t, &linear, &angular);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(linear[k], (b.root_position[k] - a.root_position[k]) / clip.frame_duration(i));
+    }
+  }
+}
+
+// DeepMimic's motion files loop by translation (its first and last walk headings differ by
+// 6.9 degrees, which would otherwise turn the walk into a circle); the project's format keeps
+// which transform a clip loops by.
+TEST(MotionClipCycle, DeepMimicClipsLoopByTranslationThroughEveryFormat) {
+  MotionClip walk = LoadDeepMimic("walk");
+  EXPECT_EQ(walk.cycle_transform(), CycleTransform::kTranslation);
+  EXPECT_EQ(walk.cycle_yaw(), 0.0);
+  EXPECT_NEAR(
+      std::remainder(YawOf(walk.frame(38).root_rotation) - YawOf(walk.frame(0).root_rotation),
+                     2 * M_PI),
+      6.886 * M_PI / 180, 1e-3);
+  std::string text = FormatClip(walk, "");
+  EXPECT_THAT(text, HasSubstr("\"cycle\": \"translation\""));
+  MotionClip back = ParseMotion(text, "walk.json");
+  EXPECT_EQ(back.cycle_transform(), CycleTransform::kTranslation);
+  EXPECT_EQ(back.cycle_yaw(), 0.0);
+
+  // A turning clip written and read back turns the same; its file needs no "cycle" field.
+  MotionClip turn = TurningClip();
+  std::string turn_text = FormatClip(turn, "");
+  EXPECT_THAT(turn_text, ::testing::Not(HasSubstr("\"cycle\"")));
+  MotionClip turn_back = ParseMotion(turn_text, "turn.json");
+  EXPECT_EQ(turn_back.cycle_transform(), CycleTransform::kPlanar);
+  EXPECT_NEAR(turn_back.cycle_yaw(), M_PI / 2, 1e-5);
+  EXPECT_THAT(
+      ParseError(Replace(turn_text, "\"loop\": true", "\"loop\": true, \"cycle\": 3"), "turn.json"),
+      HasSubstr("turn.json: cycle: expected \"planar\" or \"translation\", got 3"));
+}
+
 std::string InvalidClipMessage(std::vector<double> durations, std::vector<Pose> frames) {
   try {
     MotionClip clip("bad", true, std::move(durations), std::move(frames));
@@ -689,12 +851,14 @@ TEST(AssetMotions, AllLoad) {
       EXPECT_GE(clip.num_frames(), 2) << file;
       EXPECT_GT(clip.duration(), 0) << file;
       if (clip.loop()) {
-        // A looping clip's last frame is its first pose, moved on horizontally by one cycle
-        // (motion_clip.h); otherwise the reference jumps at every cycle boundary.
+        // A looping clip's last frame is its first pose, moved on horizontally and turned about
+        // the vertical by one cycle (motion_clip.h); otherwise the reference jumps at every
+        // cycle boundary.
         const Pose& first = clip.frame(0);
         const Pose& last = clip.frame(clip.num_frames() - 1);
         EXPECT_NEAR(last.root_position[2], first.root_position[2], 1e-6) << file;
-        EXPECT_LT(AngleBetween(last.root_rotation, first.root_rotation), 0.01) << file;
+        Quat turned = Multiply(AxisAngle({0, 0, 1}, clip.cycle_yaw()), first.root_rotation);
+        EXPECT_LT(AngleBetween(last.root_rotation, turned), 0.01) << file;
         for (size_t j = 0; j < first.joint_rotations.size(); ++j) {
           EXPECT_LT(AngleBetween(last.joint_rotations[j], first.joint_rotations[j]), 0.01)
               << file << " " << Humanoid3dJoints()[j].name;

@@ -1,0 +1,84 @@
+// Scripted evaluation of a steering policy: the character follows a command script (a file, or
+// a seeded random one) and is scored on speed and heading tracking, imitation while it walks,
+// falls, and the success of every kind of transition between commands.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "actor/sim/env_config.h"
+#include "actor/sim/motion_set.h"
+#include "common/wire.h"
+
+namespace ragdoll::actor {
+
+struct CommandScript {
+  struct Change {
+    double at = 0;        // seconds from the start
+    std::string command;  // a motion-set entry that is not a transition
+  };
+  std::vector<Change> changes;  // in time order, the first at 0
+  double duration = 0;          // seconds
+};
+
+// A YAML file:
+//   duration: 30             # seconds
+//   commands:
+//     - {at: 0, command: stand}
+//     - {at: 2, command: walk}
+// Throws ConfigError naming the file and line for an unknown command, times out of order, a
+// first change after 0, or a duration not after the last change.
+CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions);
+
+// Commands drawn uniformly from the set (never the current one again), each held for a uniform
+// random interval in [interval_min, interval_max] seconds.
+CommandScript RandomCommandScript(const sim::MotionSet& motions, double duration,
+                                  double interval_min, double interval_max, uint64_t seed);
+
+struct CommandEvalConfig {
+  int runs = 20;       // scripted runs, from random clip phases
+  bool random = true;  // a new random script per run; else `script` for every run
+  CommandScript script;
+  double duration = 60;  // of each random script, s
+  // Tracking is scored once a command has held this long (a transition has had time to play),
+  // s; a transition succeeds when the character has not fallen `transition_window` seconds after
+  // the change and, over its last half, tracks speed within transition_speed and heading within
+  // transition_heading.
+  double settle = 1.5;
+  double transition_window = 3.0;
+  double transition_speed = 0.25;    // m/s
+  double transition_heading = 0.44;  // rad (25 degrees)
+};
+
+struct CommandTracking {
+  double seconds = 0;        // settled time scored
+  double speed_error = 0;    // mean |v - v*|, m/s
+  double heading_error = 0;  // mean |heading - desired|, rad
+  double imitation = 0;      // mean imitation reward / its maximum, 0-1
+};
+
+struct TransitionOutcome {
+  int count = 0;
+  int succeeded = 0;
+};
+
+struct CommandEvalResult {
+  int runs = 0;
+  int falls = 0;            // runs that ended in a fall (a fall ends the run)
+  double seconds = 0;       // simulated in all runs
+  CommandTracking overall;  // every settled step
+  CommandTracking moving;   // settled steps of commands that move or turn
+  std::map<std::string, CommandTracking> per_command;
+  std::map<std::string, TransitionOutcome> transitions;  // "from->to"
+  double fall_rate() const { return runs ? static_cast<double>(falls) / runs : 0; }
+  std::string ToTable() const;
+  std::string ToJson() const;  // an object, for the evaluation JSON's "commands"
+};
+
+// Throws std::invalid_argument when `env` has no steering task.
+CommandEvalResult EvaluateCommands(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
+                                   const CommandEvalConfig& config, uint64_t seed);
+
+}  // namespace ragdoll::actor

@@ -1,0 +1,61 @@
+// The clips of a steering task, each with the command it demonstrates, and the transitions
+// between them (EnvConfig::steering). Loaded once per process and shared by its environments.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "actor/sim/character.h"
+#include "actor/sim/env_config.h"
+#include "actor/sim/motion_clip.h"
+
+namespace ragdoll::sim {
+
+struct MotionSetEntry {
+  std::string name;
+  std::shared_ptr<const MotionClip> clip;
+  Command command;  // a transition's is its `to` entry's
+  int from = -1;    // a transition: the entries it leads between; -1 otherwise
+  int to = -1;
+  bool transition() const { return to >= 0; }
+};
+
+class MotionSet {
+ public:
+  // Throws std::invalid_argument for an empty set or a transition that names no entry.
+  explicit MotionSet(std::vector<MotionSetEntry> entries);
+
+  const std::vector<MotionSetEntry>& entries() const { return entries_; }
+  const MotionSetEntry& entry(int i) const { return entries_[i]; }
+  int size() const { return static_cast<int>(entries_.size()); }
+  // The entries a command can name (every one that is not a transition), in set order.
+  const std::vector<int>& commands() const { return commands_; }
+  // The entry called `name`, or -1.
+  int Find(const std::string& name) const;
+  // The transition clip from entry `from` to entry `to`, or -1.
+  int Transition(int from, int to) const;
+  // The command entry whose command is closest to `command` (turn counted at 1 m/s per rad/s).
+  int Nearest(const Command& command) const;
+
+ private:
+  std::vector<MotionSetEntry> entries_;
+  std::vector<int> commands_;
+};
+
+// The command a clip demonstrates: its root's mean planar velocity expressed in its own heading
+// frame, frame by frame, and its mean turn rate, over one pass of the clip.
+Command MeasureCommand(const MotionClip& clip);
+
+// The clip reflected in the character's sagittal (x-z) plane: every right_* joint takes the
+// mirrored rotation of its left_* twin and the other way round. Walking left from walking right.
+MotionClip Mirror(const MotionClip& clip, const Character& character, const std::string& name);
+
+// Every body some clip of the set puts on the floor (ClipGroundContacts), feet included.
+std::vector<std::string> GroundContacts(const MotionSet& motions, const Character& character);
+
+// Loads, mirrors and measures every clip of `steering` (ConfigError naming the file when one
+// does not load). The set of a config without steering is its one clip, command measured.
+std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config, const Character& character);
+
+}  // namespace ragdoll::sim

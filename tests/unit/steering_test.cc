@@ -1,0 +1,438 @@
+// The steering task: motion sets (commands measured from clips, mirroring), its config, and the
+// environment's command, task reward, observation and reference switching.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <random>
+
+#include "actor/sim/env_config.h"
+#include "actor/sim/imitation_env.h"
+#include "actor/sim/motion_io.h"
+#include "actor/sim/motion_set.h"
+#include "actor/sim/observation.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+const std::string kAssets = RAGDOLL_ASSETS_DIR;
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+
+EnvConfig Read(const std::string& yaml) {
+  ConfigSection root = ConfigSection::FromString(yaml, "steer.yaml");
+  return ReadEnvConfig(root.Section("environment"), kAssets + "/character/humanoid.xml");
+}
+
+const std::string kStand = kAssets + "/motions/stand.json";
+const std::string kWalk = kAssets + "/motions/walk.json";
+
+// A clip of `frames` poses of stand.json that does not loop: a stand-to-stand "transition".
+std::shared_ptr<const MotionClip> StandTransition() {
+  MotionClip stand = LoadMotion(kStand);
+  std::vector<Pose> frames;
+  std::vector<double> durations;
+  for (int f = 0; f < 30; ++f) {
+    frames.push_back(stand.frame(f % stand.num_frames()));
+    durations.push_back(1.0 / 30);
+  }
+  return std::make_shared<const MotionClip>("start", false, durations, frames);
+}
+
+TEST(MotionSetTest, CommandsAreMeasuredFromTheClips) {
+  Command walk = MeasureCommand(LoadMotion(kWalk));
+  EXPECT_NEAR(walk.forward, 0.9, 1e-6);  // 0.9 m strides at one per second
+  EXPECT_NEAR(walk.left, 0.0, 1e-9);
+  EXPECT_NEAR(walk.turn, 0.0, 1e-9);
+  Command stand = MeasureCommand(LoadMotion(kStand));
+  EXPECT_NEAR(std::hypot(stand.forward, stand.left), 0.0, 1e-9);
+
+  // The walk turned by 90 degrees: it walks to the world's +y but still forward in its own frame.
+  MotionClip straight = LoadMotion(kWalk);
+  std::vector<Pose> frames;
+  std::vector<double> durations;
+  const Quat quarter = AxisAngle({0, 0, 1}, M_PI / 2);
+  for (int f = 0; f < straight.num_frames(); ++f) {
+    Pose p = straight.frame(f);
+    p.root_position = Rotate(quarter, p.root_position);
+    p.root_rotation = Multiply(quarter, p.root_rotation);
+    frames.push_back(p);
+    durations.push_back(straight.frame_duration(f));
+  }
+  Command turned = MeasureCommand(MotionClip("turned", true, durations, frames));
+  EXPECT_NEAR(turned.forward, 0.9, 1e-6);
+  EXPECT_NEAR(turned.left, 0.0, 1e-6);
+
+  // A root turning at a steady rate in place: 90 degrees in one second.
+  std::vector<Pose> turning;
+  for (int f = 0; f <= 30; ++f) {
+    Pose p = straight.frame(0);
+    p.root_position = {0, 0, p.root_position[2]};
+    p.root_rotation = AxisAngle({0, 0, 1}, M_PI / 2 * f / 30);
+    turning.push_back(p);
+  }
+  Command turn =
+      MeasureCommand(MotionClip("turn", false, std::vector<double>(31, 1.0 / 30), turning));
+  EXPECT_NEAR(turn.turn, M_PI / 2, 1e-9);
+  EXPECT_NEAR(turn.forward, 0.0, 1e-12);
+}
+
+TEST(MotionSetTest, MirrorSwapsSidesAndReflectsTheSagittalPlane) {
+  auto character = Character::Load(kAssets + "/character/humanoid.xml");
+  MotionClip walk = LoadMotion(kWalk);
+  MotionClip mirrored = Mirror(walk, *character, "walk_mirrored");
+  EXPECT_EQ(mirrored.name(), "walk_mirrored");
+  ASSERT_EQ(mirrored.num_frames(), walk.num_frames());
+  const auto& joints = character->joints();
+  auto index = [&](const std::string& name) {
+    for (size_t j = 0; j < joints.size(); ++j) {
+      if (joints[j].name == name) return static_cast<int>(j);
+    }
+    return -1;
+  };
+  const int right_hip = index("right_hip"), left_hip = index("left_hip"), chest = index("chest");
+  for (int f = 0; f < walk.num_frames(); f += 7) {
+    const Pose &a = walk.frame(f), &b = mirrored.frame(f);
+    EXPECT_DOUBLE_EQ(b.root_position[1], -a.root_position[1]);
+    const Quat& l = a.joint_rotations[left_hip];
+    const Quat& r = b.joint_rotations[right_hip];
+    EXPECT_DOUBLE_EQ(r[0], l[0]);
+    EXPECT_DOUBLE_EQ(r[1], -l[1]);
+    EXPECT_DOUBLE_EQ(r[2], l[2]);
+    EXPECT_DOUBLE_EQ(r[3], -l[3]);
+    // The chest's twist (about z) against the arms' swing changes sign.
+    EXPECT_DOUBLE_EQ(b.joint_rotations[chest][3], -a.joint_rotations[chest][3]);
+  }
+  // Twice is the original.
+  MotionClip twice = Mirror(mirrored, *character, "walk");
+  for (int f = 0; f < walk.num_frames(); ++f) {
+    for (size_t j = 0; j < joints.size(); ++j) {
+      EXPECT_LT(AngleBetween(twice.frame(f).joint_rotations[j], walk.frame(f).joint_rotations[j]),
+                1e-12);
+    }
+  }
+  // Walking straight ahead stays straight ahead.
+  Command c = MeasureCommand(mirrored);
+  EXPECT_NEAR(c.forward, 0.9, 1e-6);
+  EXPECT_NEAR(c.left, 0.0, 1e-9);
+}
+
+TEST(SteeringConfigTest, ReadsTheMotionSet) {
+  EnvConfig c = Read(R"(
+environment:
+  steering:
+    motions:
+      - motion: )" + kStand +
+                     R"(
+      - motion: )" + kWalk +
+                     R"(
+      - {motion: )" + kWalk +
+                     R"(, mirror: true}
+      - {motion: )" + kWalk +
+                     R"(, name: slow, command: {forward: 0.5, turn: 30}}
+    command_interval: {min: 1, max: 3}
+    task: {velocity_weight: 0.4, heading_scale: 3}
+)");
+  const SteeringConfig& s = c.steering;
+  ASSERT_TRUE(s.enabled());
+  ASSERT_EQ(s.motions.size(), 4u);
+  EXPECT_EQ(s.motions[0].name, "stand");
+  EXPECT_EQ(s.motions[2].name, "walk_mirrored");
+  EXPECT_TRUE(s.motions[2].mirror);
+  EXPECT_FALSE(s.motions[3].command_from_clip);
+  EXPECT_DOUBLE_EQ(s.motions[3].command.forward, 0.5);
+  EXPECT_DOUBLE_EQ(s.motions[3].command.turn, M_PI / 6);  // degrees per second in the file
+  EXPECT_DOUBLE_EQ(s.command_interval_min, 1);
+  EXPECT_DOUBLE_EQ(s.command_interval_max, 3);
+  EXPECT_DOUBLE_EQ(s.velocity_weight, 0.4);
+  EXPECT_DOUBLE_EQ(s.heading_weight, 0.2);
+  EXPECT_DOUBLE_EQ(s.heading_scale, 3);
+  EXPECT_EQ(c.motion, kStand);  // tools that show "the clip" show the first
+}
+
+TEST(SteeringConfigTest, BadMotionSetsNameTheProblem) {
+  const std::string head = "environment:\n  steering:\n    motions:\n";
+  EXPECT_NE(ErrorOf([&] {
+              Read("environment:\n  motion: " + kWalk +
+                   "\n  steering:\n    motions:\n      - motion: " + kWalk + "\n");
+            }).find("remove `motion`"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "      - motion: " + kWalk + "\n      - motion: " + kWalk + "\n");
+            }).find("steering.motions[1].name: 'walk' names two clips"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "      - motion: " + kWalk + "\n      - {motion: " + kStand +
+                   ", name: go, from: stand, to: walk}\n");
+            }).find("transition 'go' names 'stand', which is not"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "      - {motion: " + kWalk + ", from: stand}\n");
+            }).find("a transition needs both"),
+            std::string::npos);
+  EXPECT_NE(
+      ErrorOf([&] {
+        Read(head + "      - motion: " + kWalk + "\n    command_interval: {min: 3, max: 1}\n");
+      }).find("command_interval.max: must be at least"),
+      std::string::npos);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "      - {motion: " + kWalk + ", mirorr: true}\n");
+            }).find("mirror"),
+            std::string::npos);
+}
+
+class SteeringEnvTest : public ::testing::Test {
+ protected:
+  SteeringEnvTest() {
+    config_.character = kAssets + "/character/humanoid.xml";
+    config_.action_mode = ActionMode::kOffset;
+    config_.substeps = 10;
+    for (const std::string& m : {kStand, kWalk}) {
+      MotionSetItem item;
+      item.motion = m;
+      item.name = m == kStand ? "stand" : "walk";
+      config_.steering.motions.push_back(item);
+    }
+    config_.motion = kStand;
+    character_ = Character::Load(config_.character, config_.physics_dt());
+  }
+  std::unique_ptr<ImitationEnv> Make(uint64_t seed = 1) {
+    return std::make_unique<ImitationEnv>(character_, LoadMotionSet(config_, *character_), config_,
+                                          seed);
+  }
+  EnvConfig config_;
+  std::shared_ptr<const Character> character_;
+};
+
+TEST_F(SteeringEnvTest, ObservationCarriesTheCommand) {
+  auto env = Make();
+  const EnvSpec& spec = env->spec();
+  const int base = ObservationSize(*character_);
+  ASSERT_EQ(spec.observation_size, base + 5 + 2);
+  ASSERT_EQ(spec.observation_names.size(), static_cast<size_t>(spec.observation_size));
+  EXPECT_EQ(spec.observation_names[base], "command.forward");
+  EXPECT_EQ(spec.observation_names[base + 4], "command.heading_error.cos");
+  EXPECT_EQ(spec.observation_names[base + 6], "reference.walk");
+  EXPECT_DOUBLE_EQ(spec.max_reward_per_step, 1.0 + 0.5);
+
+  std::vector<float> obs(spec.observation_size);
+  env->SetCommand(1);
+  env->Reset(obs.data());
+  EXPECT_EQ(env->command_entry(), 1);
+  EXPECT_EQ(env->reference_entry(), 1);
+  // The episode starts facing the desired heading.
+  EXPECT_NEAR(obs[base], 0.9, 1e-6);
+  EXPECT_NEAR(obs[base + 1], 0.0, 1e-6);
+  EXPECT_EQ(obs[base + 2], 0.0f);
+  EXPECT_NEAR(obs[base + 3], 0.0, 1e-6);
+  EXPECT_NEAR(obs[base + 4], 1.0, 1e-6);
+  EXPECT_EQ(obs[base + 5], 0.0f);
+  EXPECT_EQ(obs[base + 6], 1.0f);
+}
+
+// The task term from the errors the environment reports, and the travel velocity from centre of
+// mass positions recorded here, step by step.
+TEST_F(SteeringEnvTest, TaskRewardTracksTheAveragedTravelVelocityAndHeading) {
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->SetCommand(1);
+  env->Reset(obs.data());
+  const mjModel* m = character_->model();
+  auto com = [&] {
+    Vec3 c = {0, 0, 0};
+    for (int b : character_->bodies()) {
+      for (int k = 0; k < 3; ++k) c[k] += m->body_mass[b] * env->data().xipos[3 * b + k];
+    }
+    for (double& x : c) x /= character_->total_mass();
+    return c;
+  };
+  const int window = 15;  // 0.5 s at 30 Hz
+  std::vector<Vec3> history = {com()};
+  for (int step = 0; step < 20; ++step) {
+    StepResult r = env->Step(action.data(), obs.data());
+    ASSERT_FALSE(r.terminated) << step;
+    history.push_back(com());
+    if (step + 1 < window) continue;
+    const Vec3& now = history.back();
+    const Vec3& then = history[history.size() - 1 - window];
+    const Vec3 v = env->TravelVelocity();
+    EXPECT_NEAR(v[0], (now[0] - then[0]) / 0.5, 1e-9);
+    EXPECT_NEAR(v[1], (now[1] - then[1]) / 0.5, 1e-9);
+    const double h = env->desired_heading();
+    const double ex = v[0] - 0.9 * std::cos(h), ey = v[1] - 0.9 * std::sin(h);
+    const double speed_error = std::hypot(ex, ey);
+    EXPECT_NEAR(env->SpeedError(), speed_error, 1e-12);
+    const double heading_error = std::remainder(env->heading() - h, 2 * M_PI);
+    EXPECT_NEAR(r.terms.task,
+                0.3 * std::exp(-4.0 * speed_error * speed_error) +
+                    0.2 * std::exp(-2.0 * heading_error * heading_error),
+                1e-12);
+    EXPECT_NEAR(r.reward, r.terms.total, 0);
+    EXPECT_NEAR(r.terms.total - r.terms.task,
+                0.5 * r.terms.rotation + 0.05 * r.terms.velocity + 0.15 * r.terms.end_effector +
+                    0.1 * r.terms.com + 0.2 * r.terms.root,
+                1e-12);
+  }
+  EXPECT_GT(env->episode().speed_error, 0);
+}
+
+TEST_F(SteeringEnvTest, DesiredHeadingIntegratesTheTurnRate) {
+  config_.steering.motions[1].command_from_clip = false;
+  config_.steering.motions[1].command = {0.5, 0, 0.6};
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->SetCommand(1);
+  env->Reset(obs.data());
+  const double start = env->desired_heading();
+  for (int step = 0; step < 10; ++step) env->Step(action.data(), obs.data());
+  EXPECT_NEAR(std::remainder(env->desired_heading() - start, 2 * M_PI), 10 * 0.6 / 30, 1e-12);
+  // The command seen from the character: (0.5, 0) turned by the heading error.
+  const double e = std::remainder(env->desired_heading() - env->heading(), 2 * M_PI);
+  const int base = ObservationSize(*character_);
+  EXPECT_NEAR(obs[base], 0.5 * std::cos(e), 1e-6);
+  EXPECT_NEAR(obs[base + 1], 0.5 * std::sin(e), 1e-6);
+  EXPECT_NEAR(obs[base + 2], 0.6, 1e-6);
+  EXPECT_NEAR(obs[base + 3], std::sin(e), 1e-6);
+}
+
+TEST_F(SteeringEnvTest, TrainingSwitchesCommandsAtRandomTimesAndTheReferenceFollows) {
+  config_.steering.command_interval_min = 0.5;
+  config_.steering.command_interval_max = 1.0;
+  config_.max_episode_steps = 100000;
+  auto env = Make(7);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  int switches = 0, previous = env->command_entry();
+  for (int step = 0; step < 300; ++step) {
+    // Hold the character in the reference state so that it never falls.
+    std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+    env->ReferenceState(env->time(), qpos.data(), qvel.data());
+    env->SetState(qpos.data(), qvel.data());
+    StepResult r = env->Step(action.data(), obs.data());
+    ASSERT_FALSE(r.terminated) << step;
+    if (env->command_entry() != previous) {
+      ++switches;
+      previous = env->command_entry();
+      EXPECT_EQ(env->reference_entry(), env->command_entry());
+      // The reference enters the new clip where its pose is closest to the character's: for the
+      // walk, never further than the closest key frame.
+      const int base = ObservationSize(*character_);
+      EXPECT_EQ(obs[base + 5 + env->reference_entry()], 1.0f);
+    }
+  }
+  // 10 s at one change per 0.5-1 s; each change picks stand or walk at random.
+  EXPECT_GE(switches, 4);
+  EXPECT_LE(switches, 20);
+}
+
+TEST_F(SteeringEnvTest, PhaseMatchingPicksTheClosestKeyFrame) {
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size);
+  env->SetCommand(1);
+  env->ResetAtPhase(0.37, obs.data());
+  const double time = env->time();
+  // From the walk to stand and back: the walk re-enters at the key frame nearest the pose the
+  // character holds (its own 0.37 phase pose, unchanged since no step ran).
+  env->SetCommand(0);
+  EXPECT_EQ(env->reference_entry(), 0);
+  env->SetCommand(1);
+  const MotionClip& walk = env->clip();
+  EXPECT_NEAR(env->time(),
+              walk.frame_time(static_cast<int>(std::lround(time / walk.frame_duration(0)))), 1e-9);
+  // The reference is placed on the character, facing the desired heading.
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  env->ReferenceState(env->time(), qpos.data(), qvel.data());
+  EXPECT_NEAR(qpos[0], env->data().qpos[0], 1e-9);
+  EXPECT_NEAR(qpos[1], env->data().qpos[1], 1e-9);
+}
+
+TEST_F(SteeringEnvTest, TransitionsPlayThenHandOver) {
+  auto character = character_;
+  std::vector<MotionSetEntry> entries;
+  auto stand = std::make_shared<const MotionClip>(LoadMotion(kStand));
+  auto walk = std::make_shared<const MotionClip>(LoadMotion(kWalk));
+  entries.push_back({"stand", stand, MeasureCommand(*stand)});
+  entries.push_back({"walk", walk, MeasureCommand(*walk)});
+  entries.push_back({"start", StandTransition(), MeasureCommand(*walk), 0, 1});
+  MotionSetItem start;
+  start.motion = kStand;
+  start.name = "start";
+  start.from = "stand";
+  start.to = "walk";
+  config_.steering.motions.push_back(start);
+  auto motions = std::make_shared<const MotionSet>(entries);
+  ImitationEnv env(character_, motions, config_, 3);
+  std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size, 0.0f);
+  env.SetCommand(0);
+  env.ResetAtPhase(0.0, obs.data());
+  env.SetCommand(1);
+  EXPECT_EQ(env.command_entry(), 1);
+  EXPECT_EQ(env.reference_entry(), 2);  // the transition plays first
+  EXPECT_NEAR(env.time(), 0.0, 1e-12);  // its first half holds stand's pose: entered at the start
+  int steps = 0;
+  while (env.reference_entry() == 2 && steps < 100) {
+    std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+    env.ReferenceState(env.time(), qpos.data(), qvel.data());
+    env.SetState(qpos.data(), qvel.data());
+    env.Step(action.data(), obs.data());
+    ++steps;
+  }
+  // 29 frame intervals of 1/30 s: it hands over to the walk once its time passes the end.
+  EXPECT_EQ(steps, 29);
+  EXPECT_EQ(env.reference_entry(), 1);
+  // Back to stand: no transition listed from walk, so straight to the clip.
+  env.SetCommand(0);
+  EXPECT_EQ(env.reference_entry(), 0);
+}
+
+TEST_F(SteeringEnvTest, RolloutsAreBitIdenticalForASeed) {
+  config_.steering.command_interval_min = 0.3;
+  config_.steering.command_interval_max = 0.6;
+  auto run = [&](uint64_t seed) {
+    auto env = Make(seed);
+    std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size);
+    std::vector<float> trace;
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> u(-0.3f, 0.3f);
+    env->Reset(obs.data());
+    for (int step = 0; step < 200; ++step) {
+      for (float& a : action) a = u(rng);
+      StepResult r = env->Step(action.data(), obs.data());
+      trace.insert(trace.end(), obs.begin(), obs.end());
+      trace.push_back(static_cast<float>(r.reward));
+      trace.push_back(static_cast<float>(env->command_entry()));
+      if (r.terminated || r.truncated) env->Reset(obs.data());
+    }
+    return trace;
+  };
+  auto a = run(11), b = run(11), c = run(12);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float)));
+  EXPECT_NE(a, c);
+}
+
+TEST_F(SteeringEnvTest, CommandsAreRefusedWithoutSteeringAndOutsideTheSet) {
+  auto env = Make();
+  EXPECT_THROW(env->SetCommand(2), std::invalid_argument);
+  EXPECT_THROW(env->SetCommand(-1), std::invalid_argument);
+  EnvConfig plain;
+  plain.character = config_.character;
+  plain.motion = kWalk;
+  plain.substeps = 10;
+  ImitationEnv single(character_, std::make_shared<const MotionClip>(LoadMotion(kWalk)), plain, 1);
+  EXPECT_FALSE(single.steering());
+  EXPECT_EQ(single.spec().observation_size, ObservationSize(*character_));
+  EXPECT_THROW(single.SetCommand(0), std::logic_error);
+}
+
+}  // namespace
+}  // namespace ragdoll::sim
