@@ -1,9 +1,11 @@
 // ragdoll: one binary for every role.
 //   ragdoll train CONFIG         broker + learner + actors on this machine
 //   ragdoll broker|learner|actor CONFIG   one role, for distributed runs
-//   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out (and RUN/eval.json)
+//   ragdoll eval RUN_OR_CHECKPOINT       deterministic evaluation, JSON out (and RUN/eval.json);
+//                                        --commands SCRIPT|random scores a steering policy
 //   ragdoll export RUN_OR_CHECKPOINT --onnx FILE   the policy as ONNX, with a JSON sidecar
 //   ragdoll render [RUN_OR_CHECKPOINT] --clip CLIP --out FILE.mp4|.gif|.png
+//   ragdoll play RUN_OR_CHECKPOINT      steer a trained steering run with the keyboard
 //   ragdoll motion import|export|inspect   bring BVH clips onto the character, check clips
 //   ragdoll report RUN [RUN ...] --out FILE.html   curves, evaluation and a GIF of runs, one page
 //   ragdoll keygen [NAME]                CURVE keys for authenticated, encrypted transport
@@ -20,6 +22,7 @@
 #include <iostream>
 #include <memory>
 
+#include "actor/command_evaluation.h"
 #include "actor/evaluation.h"
 #include "actor/rollout.h"
 #include "broker/broker.h"
@@ -28,6 +31,7 @@
 #include "cli/keygen_command.h"
 #include "cli/launcher.h"
 #include "cli/motion_commands.h"
+#include "cli/play_command.h"
 #include "cli/render_command.h"
 #include "cli/report_command.h"
 #include "cli/trained_policy.h"
@@ -156,8 +160,23 @@ int main(int argc, char** argv) {
                    "random, or forward/backward/left/right of the heading")
       ->capture_default_str();
 
+  std::string commands;
+  actor::CommandEvalConfig command_eval;
+  eval_cmd->add_option("--commands", commands,
+                       "steering runs: play a command script (FILE) or 'random' scripts, and "
+                       "score speed and heading tracking, falls and transitions");
+  eval_cmd->add_option("--command-runs", command_eval.runs, "scripted runs (--commands)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  eval_cmd
+      ->add_option("--command-seconds", command_eval.duration,
+                   "length of each random script, s (--commands random)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+
   std::function<int()> motion = cli::AddMotionCommands(app);
   std::function<int()> render = cli::AddRenderCommand(app, argc, argv);
+  std::function<int()> play = cli::AddPlayCommand(app, g_stop);
   std::function<int()> report = cli::AddReportCommand(app);
   std::function<int()> keygen = cli::AddKeygenCommand(app);
   std::function<int()> verify = cli::AddVerifyCommand(app);
@@ -168,6 +187,7 @@ int main(int argc, char** argv) {
     if (*train_cmd) return cli::RunTrain(train, g_stop);
     if (int code = motion(); code >= 0) return code;
     if (int code = render(); code >= 0) return code;
+    if (int code = play(); code >= 0) return code;
     if (int code = report(); code >= 0) return code;
     if (int code = keygen(); code >= 0) return code;
     if (int code = verify(); code >= 0) return code;
@@ -182,8 +202,27 @@ int main(int argc, char** argv) {
         robustness = std::make_unique<actor::RobustnessResult>(
             actor::EvaluatePushes(env, policy.snapshot, push, eval_seed));
       }
+      std::unique_ptr<actor::CommandEvalResult> scripted;
+      if (!commands.empty()) {
+        if (!env.steering.enabled()) {
+          throw ConfigError("--commands: " + policy.checkpoint +
+                            " was not trained with a steering task (environment.steering)");
+        }
+        auto character = sim::Character::Load(env.character, env.physics_dt());
+        command_eval.random = commands == "random";
+        if (!command_eval.random) {
+          command_eval.script =
+              actor::ReadCommandScript(commands, *sim::LoadMotionSet(env, *character));
+        }
+        scripted = std::make_unique<actor::CommandEvalResult>(
+            actor::EvaluateCommands(env, policy.snapshot, command_eval, eval_seed));
+      }
       // Which checkpoint was evaluated goes with the figures (`ragdoll report` shows it).
       nlohmann::json result = nlohmann::json::parse(r.ToJson(robustness.get()));
+      if (scripted) {
+        result["commands"] = nlohmann::json::parse(scripted->ToJson());
+        result["commands"]["script"] = commands;
+      }
       result["checkpoint"] = policy.checkpoint;
       result["policy_version"] = policy.version;
       result["samples"] = policy.samples;
@@ -196,6 +235,7 @@ int main(int argc, char** argv) {
                    static_cast<long long>(policy.samples), r.normalized_return, r.episode_length,
                    r.fall_rate, r.episodes);
       if (robustness) std::fprintf(stderr, "%s", robustness->ToTable().c_str());
+      if (scripted) std::fprintf(stderr, "%s", scripted->ToTable().c_str());
       if (!json_out.empty()) std::ofstream(json_out) << json << "\n";
       // A run folder keeps its latest evaluation, written whole or not at all.
       if (std::filesystem::is_directory(eval_target)) {

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <memory>
 
+#include "actor/command_evaluation.h"
 #include "actor/render/renderer.h"
 #include "actor/render/video.h"
 #include "actor/rollout.h"
@@ -24,6 +25,7 @@ struct RenderOptions {
   double phase = 0;
   double time = -1;  // .png: the moment to show (default: the middle)
   std::string ghost = "side";
+  std::string commands;  // steering runs: a command script file, or "random"
   render::View view;
   uint64_t seed = 1;
 };
@@ -59,6 +61,16 @@ std::string Caption(const std::string& clip, double t, const std::string& policy
   return caption;
 }
 
+// The command, and how well the character follows it.
+std::string SteeringCaption(const sim::ImitationEnv& e) {
+  const sim::Vec3 v = e.TravelVelocity();
+  char text[256];
+  std::snprintf(text, sizeof(text), "\ncommand %s\nspeed %.2f m/s, heading error %.0f deg",
+                e.motion_set().entry(e.command_entry()).name.c_str(), std::hypot(v[0], v[1]),
+                e.HeadingError() * 180 / M_PI);
+  return text;
+}
+
 int Render(const RenderOptions& o) {
   using Clock = std::chrono::steady_clock;
   const bool with_policy = !o.target.empty();
@@ -68,7 +80,12 @@ int Render(const RenderOptions& o) {
     policy = std::make_unique<TrainedPolicy>(LoadTrainedPolicy(o.target));
     env = policy->experiment.environment;
     if (!o.clip.empty()) env.motion = o.clip;
+    if (!o.commands.empty() && !env.steering.enabled()) {
+      throw ConfigError("render --commands: " + policy->checkpoint +
+                        " was not trained with a steering task (environment.steering)");
+    }
   } else {
+    if (!o.commands.empty()) throw ConfigError("render --commands: give a steering run");
     if (o.clip.empty()) throw ConfigError("render: give a run (or checkpoint), --clip, or both");
     env.motion = o.clip;
     env.character = sim::DefaultCharacterPath();
@@ -76,8 +93,16 @@ int Render(const RenderOptions& o) {
   auto clip = sim::LoadMotion(env.motion);
   auto character = sim::Character::Load(env.character, env.physics_dt());
   const double fps = env.control_frequency;
-  const double seconds =
-      o.seconds > 0 ? o.seconds : (with_policy ? 10.0 : std::max(3.0, clip.duration()));
+  // Steering: the script's commands (or the first command throughout) instead of training's
+  // random ones; a script file sets the length.
+  actor::CommandScript script;
+  if (!o.commands.empty() && o.commands != "random") {
+    script = actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character));
+  }
+  const double seconds = o.seconds > 0         ? o.seconds
+                         : script.duration > 0 ? script.duration
+                         : with_policy         ? 10.0
+                                               : std::max(3.0, clip.duration());
   const int steps = std::max(1, static_cast<int>(std::lround(seconds * fps)));
 
   render::View view = o.view;
@@ -105,10 +130,25 @@ int Render(const RenderOptions& o) {
       emit(s, *d, nullptr, Caption(clip.name(), t, "reference only", -1, false));
     }
   } else {
+    const bool steering = env.steering.enabled();
+    // A steered path is one episode: no time limit restarts it half-way.
+    if (steering) env.max_episode_steps = std::max(env.max_episode_steps, steps + 1);
     actor::RolloutWorker worker(env, 1, 1, o.seed, "render");
     worker.SetPolicy(policy->snapshot);
-    worker.ResetFirst(o.phase);
     sim::ImitationEnv& e = worker.environment(0);
+    size_t next_change = 0;
+    if (steering) {
+      const sim::MotionSet& motions = e.motion_set();
+      if (o.commands == "random") {
+        script = actor::RandomCommandScript(motions, seconds, env.steering.command_interval_min,
+                                            env.steering.command_interval_max, o.seed);
+      } else if (script.changes.empty()) {
+        script.changes = {{0, motions.entry(motions.commands().front()).name}};
+      }
+      worker.SetCommandFirst(motions.Find(script.changes.front().command));
+      next_change = 1;
+    }
+    worker.ResetFirst(o.phase);
     sim::DataPtr reference = character->MakeData();
     std::vector<double> qvel(character->model()->nv);
     const std::string label = "policy v" + std::to_string(policy->version);
@@ -119,18 +159,22 @@ int Render(const RenderOptions& o) {
       const auto& ep = e.episode();
       const double normalized =
           ep.length > 0 ? ep.episode_return / (e.spec().max_reward_per_step * ep.length) : 1.0;
-      emit(s, e.data(), o.ghost == "none" ? nullptr : reference.get(),
-           Caption(clip.name(), e.time(), label, normalized, fell));
+      std::string caption = Caption(e.clip().name(), e.time(), label, normalized, fell);
+      if (steering) caption += SteeringCaption(e);
+      emit(s, e.data(), o.ghost == "none" ? nullptr : reference.get(), caption);
     };
     draw(0);
     for (int s = 1; s <= steps; ++s) {
+      if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / fps) {
+        worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
+      }
       sim::StepResult r = worker.StepFirst(true);
       if (r.terminated || r.truncated) {
         fell = r.terminated;
         std::fprintf(stderr, "render: episode %s at %.2f s, normalised return %.3f\n",
                      r.terminated ? "ended (fell)" : "reached its time limit", e.time(),
                      e.episode().normalized_return);
-        worker.ResetFirst(clip.Phase(e.time()));
+        worker.ResetFirst(e.phase());
       }
       draw(s);
     }
@@ -165,6 +209,9 @@ std::function<int()> AddRenderCommand(CLI::App& app, int argc, char** argv) {
   cmd->add_option("--azimuth", o->view.azimuth, "camera azimuth, degrees")->capture_default_str();
   cmd->add_option("--elevation", o->view.elevation, "camera elevation, degrees")
       ->capture_default_str();
+  cmd->add_option("--commands", o->commands,
+                  "steering runs: a command script (YAML, as `eval --commands`) or 'random' "
+                  "(default: the first command throughout)");
   cmd->add_option("--seed", o->seed)->capture_default_str();
   return [=]() -> int {
     if (!*cmd) return -1;

@@ -27,8 +27,9 @@ packages=(
   blender
   # policy export: the ONNX graph built with ONNX's own protobuf classes and checker
   libonnx-dev python3-onnx
-  # rendering videos headless: GLFW + Mesa under Xvfb, frames encoded by ffmpeg
-  libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg
+  # rendering videos headless: GLFW + Mesa under Xvfb, frames encoded by ffmpeg; the play test
+  # presses keys in `ragdoll play`'s window with xdotool
+  libglfw3-dev libgl1-mesa-dri xvfb xauth ffmpeg xdotool
   # integration tests: a real Prometheus server, queried over HTTP from the shell
   prometheus curl jq
   # test scripts decode PNG screenshots with a few lines of Python (standard library only)

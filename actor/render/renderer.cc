@@ -6,21 +6,49 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 namespace ragdoll::render {
 
-Renderer::Renderer(const mjModel* model, const View& view) : view_(view) {
+Renderer::Renderer(const mjModel* model, const View& view) : view_(view) { Open(model, nullptr); }
+
+Renderer::Renderer(const mjModel* model, const View& view, const std::string& title,
+                   KeyCallback on_key)
+    : view_(view), visible_(true), on_key_(std::move(on_key)) {
+  Open(model, title.c_str());
+}
+
+void Renderer::Open(const mjModel* model, const char* title) {
+  const View& view = view_;
   if (!glfwInit()) {
     throw std::runtime_error("cannot initialise GLFW: no X display? (run under xvfb-run)");
   }
-  glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
-  glfwWindowHint(GLFW_DOUBLEBUFFER, GLFW_FALSE);
-  window_ = glfwCreateWindow(64, 64, "ragdoll", nullptr, nullptr);
+  glfwWindowHint(GLFW_VISIBLE, visible_ ? GLFW_TRUE : GLFW_FALSE);
+  glfwWindowHint(GLFW_DOUBLEBUFFER, visible_ ? GLFW_TRUE : GLFW_FALSE);
+  window_ = visible_ ? glfwCreateWindow(view.width, view.height, title, nullptr, nullptr)
+                     : glfwCreateWindow(64, 64, "ragdoll", nullptr, nullptr);
   if (!window_) {
     glfwTerminate();
     throw std::runtime_error("cannot create an OpenGL context (is the display's GLX working?)");
   }
   glfwMakeContextCurrent(window_);
+  if (visible_) {
+    // The caller paces frames to the simulation; waiting for vertical sync would stall it.
+    glfwSwapInterval(0);
+    // Mesa's software OpenGL (Xvfb, no GPU) spends two thirds of a frame on shadows and the
+    // floor's reflection (960x540: 83 ms a frame with them, 28 ms without): drop them there.
+    using GetString = const GLubyte* (*)(GLenum);
+    auto get_string = reinterpret_cast<GetString>(glfwGetProcAddress("glGetString"));
+    const GLubyte* gl_renderer = get_string ? get_string(GL_RENDERER) : nullptr;
+    software_ =
+        gl_renderer && (std::strstr(reinterpret_cast<const char*>(gl_renderer), "llvmpipe") ||
+                        std::strstr(reinterpret_cast<const char*>(gl_renderer), "softpipe"));
+    glfwSetWindowUserPointer(window_, this);
+    glfwSetKeyCallback(window_, [](GLFWwindow* w, int key, int, int action, int) {
+      auto* self = static_cast<Renderer*>(glfwGetWindowUserPointer(w));
+      if (action != GLFW_REPEAT && self->on_key_) self->on_key_(key, action == GLFW_PRESS);
+    });
+  }
 
   model_ = mj_copyModel(nullptr, model);
   model_->vis.global.offwidth = view.width;
@@ -40,9 +68,13 @@ Renderer::Renderer(const mjModel* model, const View& view) : view_(view) {
   mjv_defaultScene(&scene_);
   mjr_defaultContext(&context_);
   mjv_makeScene(model_, &scene_, 2000);
+  if (software_) {
+    scene_.flags[mjRND_SHADOW] = 0;
+    scene_.flags[mjRND_REFLECTION] = 0;
+  }
   mjr_makeContext(model_, &context_, mjFONTSCALE_150);
-  mjr_setBuffer(mjFB_OFFSCREEN, &context_);
-  if (context_.currentBuffer != mjFB_OFFSCREEN) {
+  mjr_setBuffer(visible_ ? mjFB_WINDOW : mjFB_OFFSCREEN, &context_);
+  if (!visible_ && context_.currentBuffer != mjFB_OFFSCREEN) {
     throw std::runtime_error("the OpenGL context has no offscreen buffer");
   }
   // A free camera re-aimed at the character every frame (MuJoCo's tracking camera smooths its
@@ -51,7 +83,7 @@ Renderer::Renderer(const mjModel* model, const View& view) : view_(view) {
   camera_.distance = view.distance;
   camera_.azimuth = view.azimuth;
   camera_.elevation = view.elevation;
-  pixels_.resize(static_cast<size_t>(view.width) * view.height * 3);
+  if (!visible_) pixels_.resize(static_cast<size_t>(view.width) * view.height * 3);
 }
 
 Renderer::~Renderer() {
@@ -63,7 +95,8 @@ Renderer::~Renderer() {
   glfwTerminate();
 }
 
-void Renderer::Draw(const mjData& simulated, const mjData* reference, const std::string& caption) {
+void Renderer::Draw(const mjData& simulated, const mjData* reference, const std::string& caption,
+                    const std::string& footer) {
   // mjv_updateScene needs a mutable mjData: draw from a copy.
   mj_copyData(scratch_, model_, &simulated);
   mj_comPos(model_, scratch_);
@@ -89,11 +122,24 @@ void Renderer::Draw(const mjData& simulated, const mjData* reference, const std:
     }
   }
   mjrRect viewport = {0, 0, view_.width, view_.height};
+  if (visible_) glfwGetFramebufferSize(window_, &viewport.width, &viewport.height);
   mjr_render(viewport, &scene_, &context_);
   if (!caption.empty()) {
     mjr_overlay(mjFONT_NORMAL, mjGRID_TOPLEFT, viewport, caption.c_str(), nullptr, &context_);
   }
-  ReadPixels();
+  if (!footer.empty()) {
+    mjr_overlay(mjFONT_NORMAL, mjGRID_BOTTOMLEFT, viewport, footer.c_str(), nullptr, &context_);
+  }
+  if (visible_) {
+    glfwSwapBuffers(window_);
+  } else {
+    ReadPixels();
+  }
+}
+
+bool Renderer::PollEvents() {
+  glfwPollEvents();
+  return !glfwWindowShouldClose(window_);
 }
 
 void Renderer::ReadPixels() {
