@@ -64,7 +64,6 @@ TEST_F(PushTest, RejectsUnknownBodiesAndDirections) {
   EXPECT_THROW(EvaluatePushes(env_, snapshot_, push_, 1), ConfigError);
 }
 
-
 // Scripted commands on a set of two clips that both stand still: "stand" demonstrates standing,
 // "still" claims a 0.5 m/s walk. A policy of zero weights (PD tracking of the reference) stands, so
 // its speed error is ~0 under "stand" and ~0.5 m/s under "still", and only the change back to
