@@ -71,8 +71,6 @@ sim::Command KeyCommand(const KeyState& keys) {
 
 double Degrees(double radians) { return radians * 180 / M_PI; }
 
-double Wrap(double radians) { return std::remainder(radians, 2 * M_PI); }
-
 struct FileCloser {
   void operator()(std::FILE* f) const { std::fclose(f); }
 };
@@ -211,7 +209,7 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
         const double direction = 2 * M_PI * uniform(rng);
         e.SetExternalForce(
             root, {o.push_force * std::cos(direction), o.push_force * std::sin(direction), 0});
-        push_angle = Wrap(direction - e.heading());
+        push_angle = sim::WrapAngle(direction - e.heading());
         push_ticks = push_ticks_total;
         ++pushes;
       }

@@ -115,6 +115,16 @@ int Character::BodyId(const std::string& name) const {
   return id;
 }
 
+Pose Character::QposToPose(const double* qpos) const {
+  Pose pose;
+  pose.root_position = {qpos[0], qpos[1], qpos[2]};
+  pose.root_rotation = {qpos[3], qpos[4], qpos[5], qpos[6]};
+  for (size_t j = 0; j < joints_.size(); ++j) {
+    pose.joint_rotations.push_back(JointRotation(qpos, static_cast<int>(j)));
+  }
+  return pose;
+}
+
 void Character::PoseToQpos(const Pose& pose, double* qpos) const {
   for (int k = 0; k < 3; ++k) qpos[k] = pose.root_position[k];
   for (int k = 0; k < 4; ++k) qpos[3 + k] = pose.root_rotation[k];

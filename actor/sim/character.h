@@ -81,6 +81,8 @@ class Character {
   void PoseToQpos(const Pose& pose, double* qpos) const;
   // The rotation of skeleton joint j (relative to its parent) for joint coordinates `qpos`.
   Quat JointRotation(const double* qpos, int j) const;
+  // The pose of joint coordinates `qpos` (the inverse of PoseToQpos for poses within range).
+  Pose QposToPose(const double* qpos) const;
 
  private:
   Character() = default;

@@ -15,8 +15,6 @@ namespace {
 // Well under a key-frame interval (33 ms at 30 fps), well above rounding.
 constexpr double kVelocityStep = 1e-3;
 
-double WrapAngle(double a) { return std::remainder(a, 2 * M_PI); }
-
 double Yaw(const double* q) {
   return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
 }
@@ -304,14 +302,18 @@ void ImitationEnv::SetCommand(int entry) {
                                 " is not a command of the motion set");
   }
   random_commands_ = false;
-  if (entry == command_entry_) return;
+  if (ChangeCommand(entry)) ReferenceState(time_, ref_data_->qpos, ref_data_->qvel);
+}
+
+bool ImitationEnv::ChangeCommand(int entry) {
+  if (entry == command_entry_) return false;
   const int transition = motions_->Transition(command_entry_, entry);
   command_entry_ = entry;
   command_ = motions_->entry(entry).command;
   // A transition leads away only from its `from` clip itself, not from another transition.
   SwitchReference(
       transition >= 0 && reference_entry_ == motions_->entry(transition).from ? transition : entry);
-  ReferenceState(time_, ref_data_->qpos, ref_data_->qvel);
+  return true;
 }
 
 void ImitationEnv::SwitchReference(int entry) {
@@ -354,8 +356,6 @@ void ImitationEnv::AdvanceTask(double next_time) {
   time_ = next_time;
   episode_time_ += config_.control_dt();
   desired_heading_ = WrapAngle(desired_heading_ + command_.turn * config_.control_dt());
-  com_head_ = (com_head_ + 1) % static_cast<int>(com_history_.size());
-  com_history_[com_head_] = CentreOfMass(*character_, *data_);
 
   const MotionSetEntry& reference = motions_->entry(reference_entry_);
   if (reference.transition() && time_ >= clip_->duration() - 1e-9) {
@@ -363,11 +363,7 @@ void ImitationEnv::AdvanceTask(double next_time) {
   } else if (random_commands_ && episode_time_ >= next_command_time_) {
     next_command_time_ += std::uniform_real_distribution<double>(
         config_.steering.command_interval_min, config_.steering.command_interval_max)(rng_);
-    const int entry = RandomCommand();
-    if (entry != command_entry_) {
-      SetCommand(entry);
-      random_commands_ = true;
-    }
+    ChangeCommand(RandomCommand());
   } else if (clip_->loop() &&
              std::floor(time_ / clip_->duration()) > std::floor(previous / clip_->duration())) {
     SyncReference(time_);  // a new cycle: the reference moves onto the character again
@@ -538,6 +534,9 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   } else {
     result.terms = Score();
     if (steering_) {
+      // The centre of mass Score() just computed joins the travel history.
+      com_head_ = (com_head_ + 1) % static_cast<int>(com_history_.size());
+      com_history_[com_head_] = sim_features_.com;
       TaskReward(&result.terms);
       error_sums_[0] += SpeedError();
       error_sums_[1] += std::abs(HeadingError());

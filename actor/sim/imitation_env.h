@@ -144,7 +144,10 @@ class ImitationEnv {
   // Steering: the reference becomes `entry`'s clip at the time whose pose is closest to the
   // character's, placed on the character and facing the desired heading.
   void SwitchReference(int entry);
-  // Steering, after the physics of a step: time, heading, travel history, command changes.
+  // Makes `entry` the command and switches the reference (through a transition where the set
+  // has one); false when it already is.
+  bool ChangeCommand(int entry);
+  // Steering, after the physics of a step: time, heading, command changes.
   void AdvanceTask(double next_time);
   void StartCommandHistory();
   void WriteObservation(float* observation) const;

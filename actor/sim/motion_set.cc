@@ -12,8 +12,6 @@
 namespace ragdoll::sim {
 namespace {
 
-double WrapAngle(double a) { return std::remainder(a, 2 * M_PI); }
-
 // Reflection in the x-z plane (y -> -y) of a rotation: the axis's x and z flip, the angle stays.
 Quat Reflect(const Quat& q) { return {q[0], -q[1], q[2], -q[3]}; }
 

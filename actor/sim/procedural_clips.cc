@@ -82,13 +82,7 @@ MotionClip Build(const Character& character, const std::string& name, double dur
       int id = mj_name2id(m, mjOBJ_JOINT, hinge.c_str());
       qpos[m->jnt_qposadr[id]] = angle;
     }
-    Pose pose;
-    pose.root_position = {qpos[0], qpos[1], qpos[2]};
-    pose.root_rotation = root;
-    for (size_t j = 0; j < character.joints().size(); ++j) {
-      pose.joint_rotations.push_back(character.JointRotation(qpos.data(), static_cast<int>(j)));
-    }
-    poses.push_back(std::move(pose));
+    poses.push_back(character.QposToPose(qpos.data()));
   }
   std::vector<double> durations(poses.size(), duration / frames);
   return MotionClip(name, true, std::move(durations), std::move(poses));
@@ -324,13 +318,7 @@ MotionClip BuildGait(const Character& character, const std::string& name, const 
         throw std::logic_error(message);
       }
     }
-    Pose pose;
-    pose.root_position = {qpos[0], qpos[1], qpos[2]};
-    pose.root_rotation = root;
-    for (size_t j = 0; j < character.joints().size(); ++j) {
-      pose.joint_rotations.push_back(character.JointRotation(qpos.data(), static_cast<int>(j)));
-    }
-    poses.push_back(std::move(pose));
+    poses.push_back(character.QposToPose(qpos.data()));
   }
   std::vector<double> durations(poses.size(), duration / frames);
   return MotionClip(name, loop, std::move(durations), std::move(poses));

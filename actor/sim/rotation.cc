@@ -105,6 +105,8 @@ double YawOf(const Quat& rotation) {
   return std::atan2(forward[1], forward[0]);
 }
 
+double WrapAngle(double radians) { return std::remainder(radians, 2 * M_PI); }
+
 Quat HeadingOf(const Quat& rotation) { return AxisAngle({0, 0, 1}, YawOf(rotation)); }
 
 }  // namespace ragdoll::sim

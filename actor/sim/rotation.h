@@ -43,5 +43,7 @@ void DecomposeHinges(const HingeAxes& axes, const Quat& rotation, double* q);
 // observations are expressed, so that a policy is invariant to where the character faces.
 Quat HeadingOf(const Quat& rotation);
 double YawOf(const Quat& rotation);
+// An angle wrapped to [-pi, pi].
+double WrapAngle(double radians);
 
 }  // namespace ragdoll::sim

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 
 #include "actor/sim/motion_io.h"
 #include "actor/sim/skeleton.h"
@@ -53,6 +54,32 @@ class ProceduralClipsTest : public ::testing::Test {
       }
     }
     return out;
+  }
+
+  // Samples `clip` every 10 ms from 0 to `end`: some foot is within `planted` of the floor at
+  // every sample (a failure otherwise), the lowest sole, and the largest horizontal move of a
+  // foot-box corner that is within `planted` of the floor in two consecutive samples.
+  void TrackFeet(const MotionClip& clip, double end, double planted, double* lowest,
+                 double* max_slide,
+                 const std::function<void(const std::array<FootState, 2>&)>& each = {}) {
+    std::array<FootState, 2> previous = Feet(clip, 0);
+    for (double t = 0.01; t <= end + 1e-9; t += 0.01) {
+      auto feet = Feet(clip, t);
+      EXPECT_LT(std::min(feet[0].lowest, feet[1].lowest), planted)
+          << clip.name() << ": both feet in the air, t=" << t;
+      if (each) each(feet);
+      for (int i = 0; i < 2; ++i) {
+        *lowest = std::min(*lowest, feet[i].lowest);
+        for (int c = 0; c < 8; ++c) {
+          const mjtNum* now = feet[i].corners.data() + 3 * c;
+          const mjtNum* before = previous[i].corners.data() + 3 * c;
+          if (now[2] < planted && before[2] < planted) {
+            *max_slide = std::max(*max_slide, std::hypot(now[0] - before[0], now[1] - before[1]));
+          }
+        }
+      }
+      previous = feet;
+    }
   }
 
   const MotionClip& Clip(const std::string& name) {
@@ -128,23 +155,7 @@ TEST_F(ProceduralClipsTest, WalkHasPlantedFeetThatDoNotSlide) {
   EXPECT_NEAR(walk.cycle_displacement()[0], 0.9, 1e-9);
   const double kPlanted = 0.005;  // sole within 5 mm of the floor
   double max_slide = 0, lowest = 1;
-  std::array<FootState, 2> previous = Feet(walk, 0);
-  for (double t = 0.01; t <= 2 * walk.duration(); t += 0.01) {
-    auto feet = Feet(walk, t);
-    EXPECT_LT(std::min(feet[0].lowest, feet[1].lowest), kPlanted)
-        << "both feet in the air, t=" << t;
-    for (int i = 0; i < 2; ++i) {
-      lowest = std::min(lowest, feet[i].lowest);
-      for (int c = 0; c < 8; ++c) {
-        const mjtNum* now = feet[i].corners.data() + 3 * c;
-        const mjtNum* before = previous[i].corners.data() + 3 * c;
-        if (now[2] < kPlanted && before[2] < kPlanted) {
-          max_slide = std::max(max_slide, std::hypot(now[0] - before[0], now[1] - before[1]));
-        }
-      }
-    }
-    previous = feet;
-  }
+  TrackFeet(walk, 2 * walk.duration() - 1e-9, kPlanted, &lowest, &max_slide);
   RecordProperty("walk_lowest_sole_mm", std::to_string(lowest * 1000));
   RecordProperty("walk_max_slide_per_10ms_mm", std::to_string(max_slide * 1000));
   EXPECT_GT(lowest, -0.002);
@@ -195,24 +206,9 @@ TEST_P(MotionSetClipsTest, FeetArePlantedFlatWithoutSlidingOrSinking) {
   const double kPlanted = 0.005;
   const double end = clip.loop() ? 2 * clip.duration() : clip.duration();
   double max_slide = 0, lowest = 1, closest = 1;
-  std::array<FootState, 2> previous = Feet(clip, 0);
-  for (double t = 0.01; t <= end + 1e-9; t += 0.01) {
-    auto feet = Feet(clip, t);
-    EXPECT_LT(std::min(feet[0].lowest, feet[1].lowest), kPlanted)
-        << "both feet in the air, t=" << t;
+  TrackFeet(clip, end, kPlanted, &lowest, &max_slide, [&](const std::array<FootState, 2>& feet) {
     closest = std::min(closest, SoleGap(feet, data_.get(), right, left));
-    for (int i = 0; i < 2; ++i) {
-      lowest = std::min(lowest, feet[i].lowest);
-      for (int c = 0; c < 8; ++c) {
-        const mjtNum* now = feet[i].corners.data() + 3 * c;
-        const mjtNum* before = previous[i].corners.data() + 3 * c;
-        if (now[2] < kPlanted && before[2] < kPlanted) {
-          max_slide = std::max(max_slide, std::hypot(now[0] - before[0], now[1] - before[1]));
-        }
-      }
-    }
-    previous = feet;
-  }
+  });
   RecordProperty("lowest_sole_mm", std::to_string(lowest * 1000));
   RecordProperty("max_slide_per_10ms_mm", std::to_string(max_slide * 1000));
   RecordProperty("closest_feet_mm", std::to_string(closest * 1000));

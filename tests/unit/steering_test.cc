@@ -323,8 +323,8 @@ TEST_F(SteeringEnvTest, TrainingSwitchesCommandsAtRandomTimesAndTheReferenceFoll
       ++switches;
       previous = env->command_entry();
       EXPECT_EQ(env->reference_entry(), env->command_entry());
-      // The reference enters the new clip where its pose is closest to the character's: for the
-      // walk, never further than the closest key frame.
+      // The observation's one-hot names the clip now imitated (phase matching itself is checked
+      // in PhaseMatchingPicksTheClosestKeyFrame).
       const int base = ObservationSize(*character_);
       EXPECT_EQ(obs[base + 5 + env->reference_entry()], 1.0f);
     }
