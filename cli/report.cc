@@ -603,9 +603,32 @@ std::string ClipOfConfig(const std::string& config_yaml) {
     if (motion && motion.IsScalar()) {
       return std::filesystem::path(motion.as<std::string>()).stem().string();
     }
+    YAML::Node motions = root["environment"]["steering"]["motions"];
+    if (motions && motions.IsSequence()) {
+      std::string names;
+      for (const auto& m : motions) {
+        std::string name;
+        if (m["name"] && m["name"].IsScalar()) {
+          name = m["name"].as<std::string>();
+        } else if (m["motion"] && m["motion"].IsScalar()) {
+          name = std::filesystem::path(m["motion"].as<std::string>()).stem().string();
+        }
+        if (!name.empty()) names += (names.empty() ? "" : ", ") + name;
+      }
+      return "steering: " + names;
+    }
   } catch (const YAML::Exception&) {
   }
   return "";
+}
+
+bool SteersInConfig(const std::string& config_yaml) {
+  try {
+    YAML::Node steering = YAML::Load(config_yaml)["environment"]["steering"];
+    return steering && steering.IsMap();
+  } catch (const YAML::Exception&) {
+    return false;
+  }
 }
 
 std::vector<ConfigDifference> CompareConfigs(const std::vector<std::string>& config_yamls) {

@@ -55,8 +55,12 @@ struct RunReport {
   std::string gif_caption;  // under the GIF, or why there is none
 };
 
-// The clip a run follows: the file stem of environment.motion in config.yaml ("" if absent).
+// The clip a run follows: the file stem of environment.motion in config.yaml, or for a steering
+// run "steering: " and its motion set's names ("" if neither is there).
 std::string ClipOfConfig(const std::string& config_yaml);
+
+// Whether config.yaml trains a steerable character (has environment.steering).
+bool SteersInConfig(const std::string& config_yaml);
 
 // Keys (dotted paths) whose values differ between the runs' config.yaml, with each run's value
 // ("" where a run lacks the key). Paths of clip files compare by value, so the same clip under

@@ -177,17 +177,21 @@ std::string RenderGif(const std::string& self, const ReportOptions& o, const fs:
   const fs::path log = work / (name + ".log");
   char seconds[32];
   std::snprintf(seconds, sizeof(seconds), "%g", o.gif_seconds);
-  const std::vector<std::string> render = {self,
-                                           "render",
-                                           run->path,
-                                           "--out",
-                                           full.string(),
-                                           "--seconds",
-                                           seconds,
-                                           "--width",
-                                           std::to_string(o.gif_width * kRenderScale),
-                                           "--height",
-                                           std::to_string(o.gif_height * kRenderScale)};
+  std::vector<std::string> render = {self,
+                                     "render",
+                                     run->path,
+                                     "--out",
+                                     full.string(),
+                                     "--seconds",
+                                     seconds,
+                                     "--width",
+                                     std::to_string(o.gif_width * kRenderScale),
+                                     "--height",
+                                     std::to_string(o.gif_height * kRenderScale)};
+  // A steering policy shown standing on its first command says little: it follows a random
+  // command script instead, captioned frame by frame.
+  const bool steering = SteersInConfig(run->config_text);
+  if (steering) render.insert(render.end(), {"--commands", "random"});
   const std::string size = std::to_string(o.gif_width) + ":" + std::to_string(o.gif_height);
   const std::vector<std::string> shrink = {
       "ffmpeg",
@@ -224,9 +228,11 @@ std::string RenderGif(const std::string& self, const ReportOptions& o, const fs:
                  run->path.c_str(), static_cast<double>(bytes) / 1e6);
   }
   run->gif_caption = std::string(seconds) + " s of the newest checkpoint (" +
-                     fs::path(checkpoint).filename().string() +
-                     "), deterministic actions; the translucent figure beside it is the "
-                     "reference clip";
+                     fs::path(checkpoint).filename().string() + "), deterministic actions" +
+                     (steering ? " following a random command script (the caption names "
+                                 "the command)"
+                               : "") +
+                     "; the translucent figure beside it is the reference clip";
   return ReadFile(gif);
 }
 

@@ -2,7 +2,8 @@
 # The steering task as a user runs it: the shipped motion set (configs/steer.yaml's, mirrored
 # clips and transitions included) trains with real processes, the run folder's effective config
 # keeps every clip, `ragdoll eval --commands` scores a script and random scripts, and the export's
-# sidecar names the command inputs and carries every clip's reference. Bad scripts are refused.
+# sidecar names the command inputs and carries every clip's reference; `ragdoll report` names the
+# motion set and animates a random command script. Bad scripts are refused.
 #   steering_test.sh RAGDOLL CONFIGS_DIR PORT_BASE
 set -u
 ragdoll=$1 configs=$2 port=$3
@@ -65,4 +66,10 @@ jq -e '(.observation.names | index("command.forward")) != null
        and ([.steering.clips[] | select(.name == "walk_start")][0].transition.to == "walk")
        and (.steering.clips[0].hinge_angles | length) > 10' "$work/steer.json" > /dev/null ||
   fail "sidecar: $(jq -c '.steering | del(.clips[].hinge_angles)' "$work/steer.json")"
-echo "PASS: steering trains, evaluates on scripts and exports"
+# The report names the motion set and animates a random command script.
+"$ragdoll" report "$run" --out "$work/report.html" --gif-seconds 3 > /dev/null 2> "$work/report.txt" ||
+  { cat "$work/report.txt"; fail "report"; }
+grep -q "steering: stand, walk, walk_backward" "$work/report.html" || fail "report: no motion set"
+grep -q "following a random command script" "$work/report.html" || fail "report: GIF caption"
+grep -q "data:image/gif;base64," "$work/report.html" || fail "report: no GIF"
+echo "PASS: steering trains, evaluates on scripts, exports and reports"

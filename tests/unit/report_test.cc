@@ -267,6 +267,15 @@ TEST(Evaluation, ReadsEvalJsonWithAndWithoutTheCheckpoint) {
             0u);
 }
 
+TEST(Config, NamesASteeringRunsMotionSet) {
+  const std::string steer =
+      "environment:\n  steering:\n    motions:\n      - motion: /a/stand.json\n"
+      "      - {motion: /a/strafe_left.json, mirror: true, name: strafe_right}\n"
+      "      - {motion: /a/walk_start.json, from: stand, to: walk}\n";
+  EXPECT_EQ(ClipOfConfig(steer), "steering: stand, strafe_right, walk_start");
+  EXPECT_TRUE(SteersInConfig(steer));
+}
+
 TEST(Config, NamesTheClipAndTheSettingsThatDiffer) {
   const std::string a =
       "environment:\n  motion: /src/assets/motions/squat.json\n  max_episode_steps: 300\n"
@@ -278,6 +287,8 @@ TEST(Config, NamesTheClipAndTheSettingsThatDiffer) {
   EXPECT_EQ(ClipOfConfig(a), "squat");
   EXPECT_EQ(ClipOfConfig("trainer: {}\n"), "");
   EXPECT_EQ(ClipOfConfig("not: [valid"), "");
+  EXPECT_FALSE(SteersInConfig(a));
+  EXPECT_FALSE(SteersInConfig("not: [valid"));
   auto d = CompareConfigs({a, b});
   ASSERT_EQ(d.size(), 2u);
   EXPECT_EQ(d[0].key, "environment.allowed_contacts");
