@@ -10,6 +10,7 @@
 #include "actor/sim/auto_mapping.h"
 #include "actor/sim/bvh.h"
 #include "actor/sim/clip_report.h"
+#include "actor/sim/foot_cleanup.h"
 #include "actor/sim/motion_io.h"
 #include "actor/sim/retarget.h"
 #include "actor/sim/scene_import.h"
@@ -23,6 +24,7 @@ struct MotionOptions {
                              json;
   sim::ImportOptions import;
   bool inspect_after = true;
+  bool fix_feet = false;
 };
 
 std::string CharacterPath(const std::string& given) {
@@ -43,6 +45,26 @@ int Import(const MotionOptions& o) {
   options.feet =
       o.feet == "rest" ? sim::ImportOptions::Feet::kRest : sim::ImportOptions::Feet::kFloor;
   sim::MotionClip clip = sim::Retarget(source, mapping, *character, options, &notes);
+  if (o.fix_feet) {
+    sim::FootCleanupReport fixed;
+    clip = sim::FixFeet(clip, *character, sim::FootCleanupOptions{}, &fixed);
+    char line[400];
+    std::snprintf(line, sizeof(line),
+                  "fix-feet: %d right and %d left plants (%.0f %% / %.0f %% of frames) put on "
+                  "the floor and held still; the feet were %.1f / %.1f cm above it at their "
+                  "lowest; largest ankle move %.1f cm, pelvis lowered up to %.1f cm",
+                  fixed.plants[0], fixed.plants[1], 100 * fixed.planted_fraction[0],
+                  100 * fixed.planted_fraction[1], 100 * fixed.float_height[0],
+                  100 * fixed.float_height[1], 100 * fixed.max_correction, 100 * fixed.max_drop);
+    notes.push_back(line);
+    if (fixed.missed_frames > 0) {
+      std::snprintf(line, sizeof(line),
+                    "fix-feet: warning: in %d frames a leg cannot reach its planted foot (up to "
+                    "%.1f cm short: the foot is beyond the ankle's range)",
+                    fixed.missed_frames, 100 * fixed.max_miss);
+      notes.push_back(line);
+    }
+  }
   auto t2 = Clock::now();
   for (const auto& n : notes) std::fprintf(stderr, "%s\n", n.c_str());
   sim::SaveClip(clip,
@@ -124,6 +146,9 @@ std::function<int()> AddMotionCommands(CLI::App& app) {
   import->add_option("--last", o->import.last_frame, "last frame to use (default: the last)");
   import->add_option("--fps", o->import.fps, "resample to this frame rate")
       ->check(CLI::PositiveNumber);
+  import->add_flag("--fix-feet", o->fix_feet,
+                   "clean up: solve the legs so that planted feet stand flat on the floor and "
+                   "hold still");
   import->add_flag("--mirror", o->import.mirror, "swap left and right");
   import->add_flag("--loop", o->import.loop, "mark the clip as looping");
   import
