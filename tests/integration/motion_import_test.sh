@@ -2,7 +2,8 @@
 # `ragdoll motion import` on files other programs wrote, as a user runs it:
 #  - real captures (tests/data/mocap: CMU's cgspeed naming, the LeftHip/LeftCollar naming) with
 #    --map auto: the mapping it prints, and foot contact, sliding and joint-limit figures with the
-#    feet aligned from the rest pose and levelled on their planted frames;
+#    feet aligned from the rest pose, levelled on their planted frames, and cleaned up by
+#    --fix-feet (also on DeepMimic's walk with longer shins and capture jitter);
 #  - the same captures and DeepMimic's captured walk converted by Blender to FBX (binary), glTF
 #    (GLB) and COLLADA: each imports to the same clip as the BVH (rotation and root errors);
 #  - truncated and garbled copies of each format: exit code 2, the file named, nothing written.
@@ -67,6 +68,23 @@ done
 grep -q "Boxing_Toes.bvh:3199: 1 line after the 3069 frames 'Frames:' declares: ignored" \
   "$work/Boxing_Toes.json.err" || fail "no note about Boxing_Toes.bvh's extra frame line"
 
+# 1b. The same captures with --fix-feet: planted feet put on the floor and held still by leg IK.
+for name in 01_01 Boxing_Toes; do
+  import_clip "$mocap/$name.bvh" "$work/$name.fixed.json" --fix-feet
+  frames=$(sed -n 's/.*: \([0-9]*\) frames at.*/\1/p' "$work/$name.fixed.json.err")
+  echo "$name --fix-feet: contact $(field "$work/$name.fixed.json" "foot contact"); sliding $(field "$work/$name.fixed.json" foot_sliding); joint limits $(field "$work/$name.fixed.json" joint_limit); penetration $(field "$work/$name.fixed.json" penetration)"
+  grep "^fix-feet" "$work/$name.fixed.json.err"
+done
+# 01_01 (jumps and walking about): both feet on the floor a quarter of the time or more, planted
+# feet sliding in under 1 % of frames, no leg beyond its range.
+python3 - "$work/01_01.fixed.json.txt" << 'PY' || fail "01_01 --fix-feet: $(cat "$work/01_01.fixed.json.txt")"
+import re, sys
+t = open(sys.argv[1]).read()
+right, left = map(int, re.search(r"foot contact +right (\d+) % of frames, left (\d+) %", t).groups())
+count = lambda kind: int(re.search(r"^%s +(\d+) frame" % kind, t, re.M).group(1))
+sys.exit(0 if right >= 25 and left >= 25 and count("foot_sliding") < 0.01 * 2752 and count("joint_limit") == 0 else 1)
+PY
+
 # 2. DeepMimic's captured walk and run as BVH with CMU names (Y up, cm), as a user exports them.
 for clip in walk run; do
   "$ragdoll" motion export "$deepmimic/humanoid3d_$clip.txt" --out "$work/dm_$clip.bvh" \
@@ -75,6 +93,27 @@ for clip in walk run; do
   import_clip "$work/dm_$clip.bvh" "$work/dm_$clip.json"
   echo "DeepMimic $clip: original contact $(grep '^foot contact' "$work/dm_$clip.original.txt" | sed 's/^foot contact *//'), sliding $(grep '^foot_sliding' "$work/dm_$clip.original.txt" | sed 's/^foot_sliding *//'); imported: contact $(field "$work/dm_$clip.json" "foot contact"), sliding $(field "$work/dm_$clip.json" foot_sliding), joint limits $(field "$work/dm_$clip.json" joint_limit)"
 done
+
+# 2b. The walk made imperfect as captures are (shins 15 % longer than the performer's, 0.3 degree
+# jitter on every rotation channel), imported as it is and with --fix-feet.
+python3 "$here/bvh_distort.py" "$work/dm_walk.bvh" "$work/dm_walk_rough.bvh" 1.15 0.3 1 || fail "distort"
+import_clip "$work/dm_walk_rough.bvh" "$work/dm_walk_rough.json" --loop
+import_clip "$work/dm_walk_rough.bvh" "$work/dm_walk_fixed.json" --loop --fix-feet
+for out in dm_walk_rough dm_walk_fixed; do
+  echo "rough DeepMimic walk ($out): contact $(field "$work/$out.json" "foot contact"); sliding $(field "$work/$out.json" foot_sliding); joint limits $(field "$work/$out.json" joint_limit); penetration $(field "$work/$out.json" penetration)"
+done
+python3 - "$work/dm_walk_rough.json.txt" "$work/dm_walk_fixed.json.txt" << 'PY' || fail "rough walk --fix-feet"
+import re, sys
+def figures(path):
+    t = open(path).read()
+    c = tuple(map(int, re.search(r"foot contact +right (\d+) % of frames, left (\d+) %", t).groups()))
+    n = lambda kind: int(re.search(r"^%s +(\d+) frame" % kind, t, re.M).group(1))
+    return c, n("foot_sliding"), n("joint_limit"), n("penetration")
+(rc, rs, _, _), (fc, fs, fl, fp) = figures(sys.argv[1]), figures(sys.argv[2])
+# Both feet alternate on the floor (each at least a quarter of the frames), the sliding is no
+# worse than before, nothing sinks or bends past a limit.
+sys.exit(0 if min(fc) >= 25 and fs <= rs and fl == 0 and fp == 0 else 1)
+PY
 
 # 3. Blender's FBX, GLB and COLLADA of each BVH import as the BVH does.
 formats=(fbx glb dae)
