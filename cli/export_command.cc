@@ -1,7 +1,9 @@
 #include "cli/export_command.h"
 
 #include <mujoco/mujoco.h>
+#include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -19,6 +22,7 @@
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 #include "learner/checkpoint_file.h"
+#include "learner/learner.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -27,7 +31,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
 struct ExportOptions {
-  std::string target, onnx, sidecar;
+  std::string target, onnx, sidecar, run;
   bool value = false;
 };
 
@@ -254,11 +258,70 @@ json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions
   return s;
 }
 
+// Every scalar of `node` that is an absolute path to an existing file.
+void CollectFilePaths(const YAML::Node& node, std::set<std::string>* out) {
+  if (node.IsScalar()) {
+    const std::string v = node.Scalar();
+    std::error_code error;
+    if (!v.empty() && v[0] == '/' && fs::is_regular_file(v, error)) out->insert(v);
+  } else if (node.IsSequence()) {
+    for (const auto& item : node) CollectFilePaths(item, out);
+  } else if (node.IsMap()) {
+    for (const auto& kv : node) CollectFilePaths(kv.second, out);
+  }
+}
+
+// `export --run OUT`: the run as a folder to ship or check in. Its config.yaml names the files it
+// uses (clips, character) relative to OUT, so the folder keeps working wherever it is moved with
+// them; its one checkpoint holds the policy and critic without the optimizer's state.
+int ExportRun(const ExportOptions& o, const TrainedPolicy& p) {
+  const fs::path out = fs::absolute(o.run).lexically_normal();
+  const fs::path run_dir = fs::path(p.checkpoint).parent_path().parent_path();
+  std::string config = ReadFile((run_dir / "config.yaml").string());
+  std::set<std::string> paths;
+  try {
+    CollectFilePaths(YAML::Load(config), &paths);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError((run_dir / "config.yaml").string() + ": " + e.what());
+  }
+  // Longest first, so that no path is rewritten inside a longer one.
+  std::vector<std::string> ordered(paths.begin(), paths.end());
+  std::sort(ordered.begin(), ordered.end(),
+            [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+  for (const auto& path : ordered) {
+    const std::string relative = fs::path(path).lexically_relative(out).string();
+    for (size_t at = config.find(path); at != std::string::npos;
+         at = config.find(path, at + relative.size())) {
+      config.replace(at, path.size(), relative);
+    }
+  }
+  actor::RolloutWorker probe(p.experiment.environment, 1, 1, 0, "probe");
+  learner::Learner l(p.experiment.trainer, probe.spec().observation_size, probe.spec().action_size);
+  l.Load(p.checkpoint);
+  const std::string bytes = l.SaveToBytes(config, /*with_optimizer=*/false);
+  fs::create_directories(out / "checkpoints");
+  const fs::path checkpoint = out / "checkpoints" / fs::path(p.checkpoint).filename();
+  learner::WriteCheckpointFile(checkpoint.string(), bytes);
+  std::ofstream file(out / "config.yaml");
+  file << config;
+  if (!file.flush()) throw ConfigError((out / "config.yaml").string() + ": cannot write");
+  std::fprintf(stderr,
+               "ragdoll export: %s (policy v%lld, %lld samples) -> %s: config.yaml (%zu file "
+               "paths made relative to it) and %s (%zu bytes, no optimizer state)\n",
+               p.checkpoint.c_str(), static_cast<long long>(p.version),
+               static_cast<long long>(p.samples), out.c_str(), paths.size(),
+               checkpoint.lexically_relative(out).c_str(), bytes.size());
+  return 0;
+}
+
 int Export(const ExportOptions& o) {
   if (!fs::exists(o.target)) {
     throw ConfigError(o.target + ": no such run folder or checkpoint file");
   }
+  if (o.onnx.empty() && o.run.empty()) throw ConfigError("give --onnx FILE, --run FOLDER or both");
   TrainedPolicy p = LoadTrainedPolicy(o.target);
+  if (!o.run.empty()) ExportRun(o, p);
+  if (o.onnx.empty()) return 0;
   actor::RolloutWorker probe(p.experiment.environment, 1, 1, 0, "probe");
   sim::ImitationEnv& env = probe.environment(0);
   const std::string sidecar =
@@ -296,9 +359,15 @@ int Export(const ExportOptions& o) {
 std::function<int()> AddExportCommand(CLI::App& app) {
   auto o = std::make_shared<ExportOptions>();
   auto* cmd = app.add_subcommand(
-      "export", "write the trained policy as an ONNX model for game engines, with a JSON sidecar");
+      "export",
+      "write the trained policy as an ONNX model for game engines, with a JSON sidecar, or as a "
+      "run folder to ship");
   cmd->add_option("run_or_checkpoint", o->target, "runs/<id> or a checkpoint file")->required();
-  cmd->add_option("--onnx", o->onnx, "the model file to write, e.g. policy.onnx")->required();
+  cmd->add_option("--onnx", o->onnx, "the model file to write, e.g. policy.onnx");
+  cmd->add_option("--run", o->run,
+                  "also (or instead) write the run as a folder to ship: config.yaml with its "
+                  "file paths relative to it, and the newest checkpoint without optimizer state "
+                  "(eval, render and play take it like the run)");
   cmd->add_flag("--value", o->value, "also output the critic's value [batch, 1]");
   cmd->add_option("--sidecar", o->sidecar, "the JSON sidecar (default: the model's name, .json)");
   return [cmd, o]() -> int {

@@ -381,15 +381,17 @@ std::vector<double> DoubleVector(const torch::Tensor& t) {
 
 }  // namespace
 
-void Learner::SaveArchive(torch::serialize::OutputArchive& archive,
-                          const std::string& config_text) {
+void Learner::SaveArchive(torch::serialize::OutputArchive& archive, const std::string& config_text,
+                          bool with_optimizer) {
   torch::serialize::OutputArchive policy_archive, critic_archive, optimizer_archive;
   policy_->save(policy_archive);
   critic_->save(critic_archive);
-  optimizer_->save(optimizer_archive);
   archive.write("policy", policy_archive);
   archive.write("critic", critic_archive);
-  archive.write("optimizer", optimizer_archive);
+  if (with_optimizer) {
+    optimizer_->save(optimizer_archive);
+    archive.write("optimizer", optimizer_archive);
+  }
   archive.write("stats_mean", DoubleTensor(stats_.mean()));
   archive.write("stats_var", DoubleTensor(stats_.var()));
   archive.write("stats_count", torch::tensor(stats_.count(), torch::kFloat64));
@@ -408,9 +410,9 @@ void Learner::Save(const std::string& path, const std::string& config_text) {
   WriteCheckpointFile(path, SaveToBytes(config_text));
 }
 
-std::string Learner::SaveToBytes(const std::string& config_text) {
+std::string Learner::SaveToBytes(const std::string& config_text, bool with_optimizer) {
   torch::serialize::OutputArchive archive;
-  SaveArchive(archive, config_text);
+  SaveArchive(archive, config_text, with_optimizer);
   std::ostringstream out;
   archive.save_to(out);
   return out.str();
@@ -459,10 +461,11 @@ std::string Learner::LoadArchive(torch::serialize::InputArchive& archive, const 
     torch::serialize::InputArchive policy_archive, critic_archive, optimizer_archive;
     archive.read("policy", policy_archive);
     archive.read("critic", critic_archive);
-    archive.read("optimizer", optimizer_archive);
     policy_->load(policy_archive);
     critic_->load(critic_archive);
-    optimizer_->load(optimizer_archive);
+    // Absent from a shipped checkpoint (`export --run`): the optimizer starts afresh.
+    optimizer_restored_ = archive.try_read("optimizer", optimizer_archive);
+    if (optimizer_restored_) optimizer_->load(optimizer_archive);
     torch::Tensor mean, var, count, counters;
     archive.read("stats_mean", mean);
     archive.read("stats_var", var);

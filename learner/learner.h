@@ -79,12 +79,16 @@ class Learner {
   // truncation or checksum failure.
   // Returns the config text stored in the checkpoint.
   std::string Load(const std::string& path);
-  // The same state as bytes (what Save writes to a file).
-  std::string SaveToBytes(const std::string& config_text);
+  // The same state as bytes (what Save writes to a file). Without the optimizer's state the
+  // file is a third the size: the policy and critic to ship (`ragdoll export --run`); training
+  // resumed from it starts the optimizer afresh.
+  std::string SaveToBytes(const std::string& config_text, bool with_optimizer = true);
   std::string LoadFromBytes(const std::string& bytes, const std::string& source);
   // Copies only the network weights and observation statistics of a checkpoint (--init-from).
   void LoadWeights(const std::string& path);
 
+  // Whether the last Load restored the optimizer's state (false: a checkpoint without it).
+  bool optimizer_restored() const { return optimizer_restored_; }
   int64_t version() const { return version_; }
   // The newest policy version seen in a segment (-1: none yet).
   int64_t newest_seen_version() const { return newest_seen_; }
@@ -108,7 +112,8 @@ class Learner {
   // The running statistics take in `rows` rows ([rows, size] float32) of this replica and, with
   // replicas, of every other one.
   void MergeStatistics(RunningStats& stats, const torch::Tensor& rows);
-  void SaveArchive(torch::serialize::OutputArchive& archive, const std::string& config_text);
+  void SaveArchive(torch::serialize::OutputArchive& archive, const std::string& config_text,
+                   bool with_optimizer = true);
   std::string LoadArchive(torch::serialize::InputArchive& archive, const std::string& source);
 
   TrainerConfig config_;
@@ -129,6 +134,7 @@ class Learner {
   int64_t samples_ = 0;
   int64_t iterations_ = 0;
   int64_t stale_dropped_ = 0;
+  bool optimizer_restored_ = false;
   // The adaptive schedule's current rate (saved with checkpoints, so --resume continues it).
   double adaptive_learning_rate_;
   EpisodeStatsSum episodes_;

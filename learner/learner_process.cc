@@ -328,9 +328,12 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                    damaged.empty() ? "" : "good ", checkpoints.c_str());
     } else {
       learner.Load(path);
-      std::fprintf(stderr, "learner: resumed from %s at policy v%lld, %lld samples\n", path.c_str(),
-                   static_cast<long long>(learner.version()),
-                   static_cast<long long>(learner.samples()));
+      std::fprintf(stderr, "learner: resumed from %s at policy v%lld, %lld samples%s\n",
+                   path.c_str(), static_cast<long long>(learner.version()),
+                   static_cast<long long>(learner.samples()),
+                   learner.optimizer_restored()
+                       ? ""
+                       : " (a shipped checkpoint without optimizer state: Adam starts afresh)");
     }
     // Actors may run a newer version than the checkpoint's (this learner was killed between
     // checkpoints): the numbering continues above it, so that versions never go backward.

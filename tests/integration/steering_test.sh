@@ -3,7 +3,8 @@
 # clips and transitions included) trains with real processes, the run folder's effective config
 # keeps every clip, `ragdoll eval --commands` scores a script and random scripts, and the export's
 # sidecar names the command inputs and carries every clip's reference; `ragdoll report` names the
-# motion set and animates a random command script. Bad scripts are refused.
+# motion set and animates a random command script; `export --run` ships the run as a relocatable
+# folder. Bad scripts are refused.
 #   steering_test.sh RAGDOLL CONFIGS_DIR PORT_BASE
 set -u
 ragdoll=$1 configs=$2 port=$3
@@ -66,6 +67,16 @@ jq -e '(.observation.names | index("command.forward")) != null
        and ([.steering.clips[] | select(.name == "walk_start")][0].transition.to == "walk")
        and (.steering.clips[0].hinge_angles | length) > 10' "$work/steer.json" > /dev/null ||
   fail "sidecar: $(jq -c '.steering | del(.clips[].hinge_angles)' "$work/steer.json")"
+# A run folder to ship: file paths relative to it, a checkpoint without optimizer state (under
+# half the size), and eval takes it like the run.
+"$ragdoll" export "$run" --run "$work/shipped" > /dev/null 2> "$work/ship.txt" || { cat "$work/ship.txt"; fail "export --run"; }
+grep -q 'motion: \.\./' "$work/shipped/config.yaml" && ! grep -q ': /' "$work/shipped/config.yaml" ||
+  fail "shipped config: $(grep -n ': /\|motion' "$work/shipped/config.yaml")"
+slim=$(stat -c %s "$work"/shipped/checkpoints/*.pt) whole=$(ls -S "$run"/checkpoints/*.pt | head -1 | xargs stat -c %s)
+[ $((slim * 2)) -lt "$whole" ] || fail "shipped checkpoint $slim bytes, the run's $whole"
+"$ragdoll" eval "$work/shipped" --episodes 1 --json "$work/shipped.json" > /dev/null 2>&1 || fail "eval of the shipped run"
+jq -e '.episodes == 1' "$work/shipped.json" > /dev/null || fail "shipped eval: $(cat "$work/shipped.json")"
+
 # The report names the motion set and animates a random command script.
 "$ragdoll" report "$run" --out "$work/report.html" --gif-seconds 3 > /dev/null 2> "$work/report.txt" ||
   { cat "$work/report.txt"; fail "report"; }

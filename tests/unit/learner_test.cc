@@ -193,6 +193,40 @@ TEST_F(LearnerTest, CheckpointRestoresTrainingStateExactly) {
   EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
 }
 
+// A shipped checkpoint (`export --run`) leaves out Adam's state: a third the size, the same
+// policy, critic and statistics, and training from it starts the optimizer afresh.
+TEST_F(LearnerTest, ACheckpointWithoutOptimizerStateKeepsThePolicyAndRestartsAdam) {
+  torch::manual_seed(1);
+  Learner original(SmallConfig(), kObs, kAct);
+  Fill(original, 1);
+  original.Update();
+  const std::string whole = original.SaveToBytes("trainer: {}\n");
+  const std::string slim = original.SaveToBytes("trainer: {}\n", /*with_optimizer=*/false);
+  EXPECT_LT(slim.size(), whole.size() * 0.6);
+
+  torch::manual_seed(99);
+  Learner restored(SmallConfig(), kObs, kAct);
+  EXPECT_EQ(restored.LoadFromBytes(slim, "slim"), "trainer: {}\n");
+  EXPECT_FALSE(restored.optimizer_restored());
+  EXPECT_EQ(restored.version(), 1);
+  EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
+  EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
+  EXPECT_EQ(original.stats().mean(), restored.stats().mean());
+  Learner again(SmallConfig(), kObs, kAct);
+  again.LoadFromBytes(whole, "whole");
+  EXPECT_TRUE(again.optimizer_restored());
+
+  // Training goes on from it; the step differs from the original's, whose Adam moments it lacks.
+  Fill(original, 2);
+  Fill(restored, 2);
+  torch::manual_seed(7);
+  original.Update();
+  torch::manual_seed(7);
+  restored.Update();
+  EXPECT_EQ(restored.version(), 2);
+  EXPECT_FALSE(SameParameters(*original.policy(), *restored.policy()));
+}
+
 // The adaptive schedule moves the rate every minibatch and a checkpoint carries it: a resumed
 // run continues with the same rate and takes the same steps.
 TEST_F(LearnerTest, AdaptiveScheduleMovesTheRateAndResumesIt) {
