@@ -313,6 +313,64 @@ MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping
         ToQuat(Mul(Frame(source_bone, source_twist), Transpose(Frame(char_bone, char_twist))));
   }
 
+  // Hinges from the motion: a knee or elbow bends about one axis, fixed in the thigh or upper
+  // arm. Where the motion bends it enough to show that axis, the thigh's or upper arm's twist
+  // (and the shin's or forearm's) is chosen so that the character's hinge lies along it. The rest
+  // pose's twist is then not needed: files whose node transforms hold a bent pose rather than
+  // the rest (Blender's exports of a bare armature) bend their knees and elbows as they should.
+  {
+    const int first = std::max(options.first_frame, 0);
+    const int end = options.last_frame < 0 ? source.num_frames() - 1
+                                           : std::min(options.last_frame, source.num_frames() - 1);
+    const mjModel* m = character.model();
+    for (int h = 0; h < kSegmentCount; ++h) {
+      const Segment& seg = kSegments[h];
+      if (!seg.hinge || !driven[h] || !driven[seg.parent]) continue;
+      const Segment& parent = kSegments[seg.parent];
+      const int a = joint[parent.part], b = joint[seg.part], c = bone_end(seg.part, seg.bone_end);
+      if (c < 0) continue;
+      // The source's bend axis in each segment's rest-relative frame, averaged over the frames
+      // bent by more than 20 degrees.
+      Vec3 axis_parent = {0, 0, 0}, axis_child = {0, 0, 0};
+      int bent = 0;
+      for (int f = first; f <= end; ++f) {
+        const auto& pose = source.frames[f];
+        const Vec3 u = in_character(Sub(pose[b].position, pose[a].position));
+        const Vec3 w = in_character(Sub(pose[c].position, pose[b].position));
+        const Vec3 n = Cross(u, w);
+        if (!(Norm(n) > std::sin(20 * M_PI / 180) * Norm(u) * Norm(w))) continue;
+        const Vec3 unit = Scale(n, 1 / Norm(n));
+        axis_parent = Add(axis_parent, Rotate(Conjugate(world_at(f, a)), unit));
+        axis_child = Add(axis_child, Rotate(Conjugate(world_at(f, b)), unit));
+        ++bent;
+      }
+      // Too few bent frames, or an axis that wanders (not a hinge): the rest pose decides.
+      if (bent < 10 || Norm(axis_parent) < 0.8 * bent || Norm(axis_child) < 0.8 * bent) continue;
+      // The character's bend axis at rest: its bone directions with the hinge flexed.
+      const int hinge = m->body_jntadr[character.BodyId(seg.part)];
+      const double* range = m->jnt_range + 2 * hinge;
+      const double flex = std::abs(range[1]) >= std::abs(range[0]) ? 0.5 : -0.5;
+      const Vec3 hinge_axis = {m->jnt_axis[3 * hinge], m->jnt_axis[3 * hinge + 1],
+                               m->jnt_axis[3 * hinge + 2]};
+      const Vec3 char_u = Sub(char_rest.at(seg.part), char_rest.at(parent.part));
+      const Vec3 char_w = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
+      const Vec3 char_axis = Cross(char_u, Rotate(AxisAngle(hinge_axis, flex), char_w));
+      if (!(Norm(char_axis) > 1e-9)) continue;
+      // Turn each alignment about its bone until the hinge lies along the source's axis.
+      auto twist_onto = [&](int s, const Vec3& char_bone, const Vec3& target) {
+        const Vec3 bone = Rotate(alignment[s], Scale(char_bone, 1 / Norm(char_bone)));
+        const Vec3 from = Rotate(alignment[s], char_axis);
+        auto flat = [&](const Vec3& v) { return Sub(v, Scale(bone, Dot(v, bone))); };
+        const Vec3 x = flat(from), y = flat(target);
+        if (!(Norm(x) > 1e-9 && Norm(y) > 1e-9)) return;
+        const double angle = std::atan2(Dot(bone, Cross(x, y)), Dot(x, y));
+        alignment[s] = Normalized(Multiply(AxisAngle(bone, angle), alignment[s]));
+      };
+      twist_onto(seg.parent, char_u, axis_parent);
+      twist_onto(h, char_w, axis_child);
+    }
+  }
+
   // Frames.
   const int last = options.last_frame < 0 ? source.num_frames() - 1 : options.last_frame;
   if (options.first_frame < 0 || last >= source.num_frames() || last - options.first_frame < 1) {

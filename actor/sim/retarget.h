@@ -8,7 +8,10 @@
 // reference), so a T-posed mocap skeleton drives the arms-down character correctly; every frame, a
 // segment's world rotation is the BVH joint's world rotation composed with that alignment. BVH
 // joints the character lacks (extra spine, clavicle, neck joints) are folded in because world
-// rotations include every joint above them; parts the mapping leaves out stay at rest. The up axis,
+// rotations include every joint above them; parts the mapping leaves out stay at rest. Knees and
+// elbows, single hinges on the character, take their hinge axis from the motion where it bends
+// them enough to show it (so a file whose "rest" pose is really a bent frame still bends them
+// right); the thigh's and upper arm's twist follow from it. The up axis,
 // facing direction and units are found from the BVH's rest pose (hips, spine, legs), so Y-up and
 // Z-up files in centimetres or metres import alike.
 #pragma once

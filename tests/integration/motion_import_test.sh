@@ -26,7 +26,8 @@ import_clip() {
 }
 field() { grep "^$2" "$1.txt" | sed "s/^$2 *//"; }
 read_ms() { sed -n 's/.*(read \([0-9]*\) ms.*/\1/p' "$1.err"; }
-# Largest joint-rotation difference (degrees) and root-position difference (cm) of two clips.
+# Largest joint-rotation difference (degrees), root-position difference (cm) and knee or elbow
+# difference (degrees) of two clips.
 compare() {
   python3 - "$1" "$2" << 'PY'
 import json, math, sys
@@ -37,16 +38,17 @@ if len(fa) != len(fb):
 def angle(p, q):
     d = abs(sum(x * y for x, y in zip(p, q)))
     return math.degrees(2 * math.acos(min(1.0, d)))
-rot = pos = 0.0
+names = a.get("joints", [])
+rot = pos = hinge = 0.0
 for x, y in zip(fa, fb):
     rot = max(rot, angle(x["root_rotation"], y["root_rotation"]))
-    for p, q in zip(x["rotations"], y["rotations"]):
-        if isinstance(p, list):
-            rot = max(rot, angle(p, q))
-        else:
-            rot = max(rot, abs(math.degrees(p - q)))
+    for i, (p, q) in enumerate(zip(x["rotations"], y["rotations"])):
+        e = angle(p, q) if isinstance(p, list) else abs(math.degrees(p - q))
+        rot = max(rot, e)
+        if i < len(names) and names[i].endswith(("knee", "elbow")):
+            hinge = max(hinge, e)
     pos = max(pos, max(abs(u - v) for u, v in zip(x["root_position"], y["root_position"])) * 100)
-print("%.4f %.4f" % (rot, pos))
+print("%.4f %.4f %.4f" % (rot, pos, hinge))
 PY
 }
 
@@ -117,26 +119,31 @@ PY
 
 # 3. Blender's FBX, GLB and COLLADA of each BVH import as the BVH does.
 formats=(fbx glb dae)
-# Only 01_01, which starts in its T-pose: Blender writes each bone's FBX/glTF/COLLADA transform
-# as the pose of the frame it exports from, which the reader takes as the rest pose; where that
-# frame bends the elbows (Boxing_Toes, DeepMimic's walk) the elbow hinge comes out 21-46 degrees
-# off in every frame. An open defect: docs/motion-import.md, "Known problems".
-for name in 01_01; do
+# Blender writes a bare armature's node transforms as the pose of the frame it exports from, not
+# the rest pose. Knees and elbows come out right all the same (their hinge axes are taken from the
+# motion): asserted within 1 degree for every file. Other joints: within 3 degrees, except
+# Boxing_Toes' FBX, whose first frame bends the spine (chest and hips 11-12 degrees off; an open
+# defect, docs/motion-import.md "Known problems"). Boxing_Toes' COLLADA is left out: Blender takes
+# 3 minutes to write it.
+for name in 01_01 Boxing_Toes dm_walk; do
   src="$mocap/$name.bvh"
   [ -e "$src" ] || src="$work/$name.bvh"
   [ -e "$work/$name.json" ] || import_clip "$src" "$work/$name.json"
   for ext in "${formats[@]}"; do
+    [ "$name.$ext" = Boxing_Toes.dae ] && continue
     blender -b --factory-startup --python "$here/blender_convert.py" -- "$src" "$work/$name.$ext" \
       > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender $name.$ext"; }
     [ -s "$work/$name.$ext" ] || { tail -n 20 "$work/blender.log"; fail "blender wrote no $name.$ext"; }
     # Blender bakes the scene's frame range; take the BVH's frames.
     frames=$(sed -n 's/.*: \([0-9]*\) frames at.*/\1/p' "$work/$name.json.err")
     import_clip "$work/$name.$ext" "$work/$name.$ext.json" --last $((frames - 1))
-    read -r rot pos <<< "$(compare "$work/$name.json" "$work/$name.$ext.json")" ||
+    read -r rot pos hinge <<< "$(compare "$work/$name.json" "$work/$name.$ext.json")" ||
       fail "$name.$ext: $rot"
-    echo "$name.$ext: $(stat -c %s "$work/$name.$ext") bytes, read $(read_ms "$work/$name.$ext.json") ms, rotation error ${rot} deg, root error ${pos} cm vs the BVH"
-    python3 -c "import sys; r, p = map(float, sys.argv[1:]); sys.exit(0 if r < 3 and p < 0.5 else 1)" \
-      "$rot" "$pos" || fail "$name.$ext differs from the BVH: ${rot} deg, ${pos} cm"
+    echo "$name.$ext: $(stat -c %s "$work/$name.$ext") bytes, read $(read_ms "$work/$name.$ext.json") ms, rotation error ${rot} deg (knees and elbows ${hinge}), root error ${pos} cm vs the BVH"
+    bound=3
+    [ "$name.$ext" = Boxing_Toes.fbx ] && bound=15
+    python3 -c "import sys; r, p, h, b = map(float, sys.argv[1:]); sys.exit(0 if r < b and p < 0.5 and h < 1 else 1)" \
+      "$rot" "$pos" "$hinge" "$bound" || fail "$name.$ext differs from the BVH: ${rot} deg (hinges ${hinge}), ${pos} cm"
   done
 done
 

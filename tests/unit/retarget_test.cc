@@ -189,7 +189,7 @@ TEST_F(RetargetTest, AlignsATPosedSkeletonToTheCharacter) {
     const double side = joint.name.rfind("left_", 0) == 0 ? 1 : -1;
     if (joint.name == "right_elbow" || joint.name == "left_elbow")
       joint.offset = {0, side * 0.27, 0};
-    if (joint.name == "right_elbow_end" || joint.name == "left_elbow_end") {
+    if (joint.name == "right_wrist" || joint.name == "left_wrist") {
       joint.offset = {0, side * 0.26, 0};
     }
   }

@@ -2,6 +2,7 @@
 // GLB, COLLADA) from the project's clips on Mixamo- and CMU-named skeletons, and on damaged
 // copies of them.
 #include "actor/sim/scene_import.h"
+#include "actor/sim/skeleton.h"
 
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
@@ -26,10 +27,11 @@ const std::string kAssets = RAGDOLL_ASSETS_DIR;
 
 // An Assimp scene holding `bvh`'s skeleton under an "Armature" node, with one animation per
 // entry of `names` (all the same motion), keys at the frames, `ticks_per_second` as given.
-// With `posed_with_skin`, the nodes hold the first frame's pose (as Blender writes them) and a
-// skinned triangle carries the rest pose as its bones' offset matrices.
+// With `nodes` kPosed*, the nodes hold the first frame's pose (as Blender writes them); with
+// kPosedSkinned a skinned triangle carries the rest pose as its bones' offset matrices.
+enum class Nodes { kRest, kPosedBare, kPosedSkinned };
 aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& names,
-                      bool posed_with_skin = false) {
+                      Nodes pose = Nodes::kRest) {
   auto* scene = new aiScene();
   scene->mRootNode = new aiNode("Scene");
   auto* armature = new aiNode("Armature");
@@ -45,7 +47,7 @@ aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& name
     node->mTransformation.a4 = static_cast<ai_real>(joint.offset[0]);
     node->mTransformation.b4 = static_cast<ai_real>(joint.offset[1]);
     node->mTransformation.c4 = static_cast<ai_real>(joint.offset[2]);
-    if (posed_with_skin && !joint.end_site) {
+    if (pose != Nodes::kRest && !joint.end_site) {
       const Quat q = bvh.LocalRotation(0, static_cast<int>(j));
       const Vec3 t = bvh.LocalTranslation(0, static_cast<int>(j));
       node->mTransformation =
@@ -111,7 +113,7 @@ aiScene* SceneFromBvh(const BvhMotion& bvh, const std::vector<std::string>& name
   // Exporters want a material; a scene without meshes is "incomplete" to Assimp.
   scene->mNumMaterials = 1;
   scene->mMaterials = new aiMaterial* [1] { new aiMaterial() };
-  if (!posed_with_skin) {
+  if (pose != Nodes::kPosedSkinned) {
     scene->mFlags |= AI_SCENE_FLAGS_INCOMPLETE;
     return scene;
   }
@@ -191,14 +193,15 @@ class SceneImportTest : public ::testing::Test {
   // Assimp's `format` exporter; the path, or "" with the exporter's complaint in `why`.
   std::string Write(const MotionClip& clip, const std::string& naming, const Format& format,
                     const std::vector<std::string>& animations, std::string* why,
-                    bool posed_with_skin = false) {
+                    Nodes nodes = Nodes::kRest) {
     ExportOptions options;
     options.y_up = true;
     options.units_per_metre = 100;
     BvhMotion bvh = ClipToBvh(clip, *character_, ReadJointMapping(naming), options);
-    std::unique_ptr<aiScene> scene(SceneFromBvh(bvh, animations, posed_with_skin));
+    std::unique_ptr<aiScene> scene(SceneFromBvh(bvh, animations, nodes));
+    const char* suffix[] = {"", "_posed", "_skinned"};
     const std::string path = dir_ + "/" + clip.name() + "_" + naming + "_" + format.id +
-                             (posed_with_skin ? "_skinned" : "") + format.extension;
+                             suffix[static_cast<int>(nodes)] + format.extension;
     Assimp::Exporter exporter;
     if (exporter.Export(scene.get(), format.id, path) != aiReturn_SUCCESS) {
       *why = exporter.GetErrorString();
@@ -274,7 +277,7 @@ TEST_F(SceneImportTest, TheSkinnedMeshsBindPoseIsTheRestPose) {
   options.feet = ImportOptions::Feet::kRest;
   for (const Format& format : {kFormats[0], kFormats[1]}) {
     std::string why;
-    const std::string path = Write(walk_, "cmu", format, {"Take 001"}, &why, true);
+    const std::string path = Write(walk_, "cmu", format, {"Take 001"}, &why, Nodes::kPosedSkinned);
     ASSERT_FALSE(path.empty()) << why;
     std::vector<std::string> notes;
     SkeletonAnimation source = LoadSkeletonAnimation(path, "", &notes);
@@ -289,6 +292,34 @@ TEST_F(SceneImportTest, TheSkinnedMeshsBindPoseIsTheRestPose) {
     EXPECT_LT(rotation, 1e-4) << format.id;
     EXPECT_LT(position, 1e-4) << format.id;
   }
+}
+
+// The same posed nodes without a skinned mesh (Blender's export of a bare armature): no bind
+// pose says what the rest is, yet knees and elbows take their hinge axis from the motion and
+// come back as they were.
+TEST_F(SceneImportTest, KneesAndElbowsOfAPosedBareArmatureBendAsTheyShould) {
+  ImportOptions options;
+  options.feet = ImportOptions::Feet::kRest;
+  std::string why;
+  const std::string path = Write(walk_, "cmu", kFormats[0], {"Take 001"}, &why, Nodes::kPosedBare);
+  ASSERT_FALSE(path.empty()) << why;
+  MotionClip back =
+      Retarget(LoadSkeletonAnimation(path), ReadJointMapping("cmu"), *character_, options);
+  ASSERT_EQ(back.num_frames(), walk_.num_frames());
+  double hinge = 0, other = 0;
+  for (int f = 0; f < walk_.num_frames(); ++f) {
+    for (const auto& joint : Humanoid3dJoints()) {
+      const int j = FindJoint(joint.name);
+      const double e =
+          AngleBetween(walk_.frame(f).joint_rotations[j], back.frame(f).joint_rotations[j]);
+      const bool is_hinge = joint.name.find("knee") != std::string::npos ||
+                            joint.name.find("elbow") != std::string::npos;
+      (is_hinge ? hinge : other) = std::max(is_hinge ? hinge : other, e);
+    }
+  }
+  std::printf("posed bare armature: knees and elbows %.2e rad, other joints %.2e rad\n", hinge,
+              other);
+  EXPECT_LT(hinge, 0.0175);  // 1 degree
 }
 
 TEST_F(SceneImportTest, ListsAnimationsAndTakesOneByNameOrIndex) {
