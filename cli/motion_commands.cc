@@ -147,8 +147,8 @@ std::function<int()> AddMotionCommands(CLI::App& app) {
   import->add_option("--fps", o->import.fps, "resample to this frame rate")
       ->check(CLI::PositiveNumber);
   import->add_flag("--fix-feet", o->fix_feet,
-                   "clean up: solve the legs so that planted feet stand flat on the floor and "
-                   "hold still");
+                   "clean up: solve the legs so that planted feet stand on the floor and hold "
+                   "still, the pelvis lowered where a leg cannot reach");
   import->add_flag("--mirror", o->import.mirror, "swap left and right");
   import->add_flag("--loop", o->import.loop, "mark the clip as looping");
   import

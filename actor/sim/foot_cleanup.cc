@@ -153,12 +153,12 @@ std::vector<Vec3> AnkleTargets(const MotionClip& clip, const FootTrack& foot,
   std::vector<Vec3> target = foot.ankle;
   std::vector<Vec3> correction(n, Vec3{0, 0, 0});
   moved->assign(n, 0);
+  std::vector<Vec3> offsets(foot.corners.size());  // the sole's corners from the ankle, world
   for (const Plant& p : plants) {
     int contact = -1;
     double anchor[2] = {0, 0};
     for (int k = p.first; k <= p.last; ++k) {
       int c = 0;
-      std::vector<Vec3> offsets(foot.corners.size());
       for (size_t i = 0; i < offsets.size(); ++i) {
         offsets[i] = Rotate(foot.rotation[k], foot.corners[i]);
         if (offsets[i][2] < offsets[c][2]) c = static_cast<int>(i);

@@ -80,6 +80,16 @@ void Fill(Learner& learner, uint32_t seed, float reward_scale = 1) {
   }
 }
 
+// One update of each learner on the same segments (`fill`) with the same random draws.
+std::pair<UpdateStats, UpdateStats> UpdateAlike(Learner& a, Learner& b, uint32_t fill) {
+  Fill(a, fill);
+  Fill(b, fill);
+  torch::manual_seed(7);
+  UpdateStats first = a.Update();
+  torch::manual_seed(7);
+  return {first, b.Update()};
+}
+
 bool SameParameters(torch::nn::Module& a, torch::nn::Module& b) {
   auto pa = a.named_parameters(), pb = b.named_parameters();
   if (pa.size() != pb.size()) return false;
@@ -182,12 +192,7 @@ TEST_F(LearnerTest, CheckpointRestoresTrainingStateExactly) {
   EXPECT_EQ(original.stats().mean(), restored.stats().mean());
   EXPECT_EQ(original.stats().var(), restored.stats().var());
 
-  Fill(original, 3);
-  Fill(restored, 3);
-  torch::manual_seed(7);
-  original.Update();
-  torch::manual_seed(7);
-  restored.Update();
+  UpdateAlike(original, restored, 3);
   // Adam's moments were restored too: otherwise this step would differ.
   EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
   EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
@@ -217,12 +222,7 @@ TEST_F(LearnerTest, ACheckpointWithoutOptimizerStateKeepsThePolicyAndRestartsAda
   EXPECT_TRUE(again.optimizer_restored());
 
   // Training goes on from it; the step differs from the original's, whose Adam moments it lacks.
-  Fill(original, 2);
-  Fill(restored, 2);
-  torch::manual_seed(7);
-  original.Update();
-  torch::manual_seed(7);
-  restored.Update();
+  UpdateAlike(original, restored, 2);
   EXPECT_EQ(restored.version(), 2);
   EXPECT_FALSE(SameParameters(*original.policy(), *restored.policy()));
 }
@@ -245,12 +245,7 @@ TEST_F(LearnerTest, AdaptiveScheduleMovesTheRateAndResumesIt) {
   original.Save(path, "");
   Learner restored(config, kObs, kAct);
   restored.Load(path);
-  Fill(original, 2);
-  Fill(restored, 2);
-  torch::manual_seed(7);
-  UpdateStats a = original.Update();
-  torch::manual_seed(7);
-  UpdateStats b = restored.Update();
+  const auto [a, b] = UpdateAlike(original, restored, 2);
   EXPECT_NEAR(a.learning_rate, 3e-4 / std::pow(1.5, 4), 1e-15);
   EXPECT_EQ(a.learning_rate, b.learning_rate);
   EXPECT_TRUE(SameParameters(*original.policy(), *restored.policy()));
