@@ -2,7 +2,11 @@
 // is forward + backward + Adam on minibatches of the same size for the same number of gradient
 // steps, with a plain squared-error loss; the ratio is what GAE, the PPO loss, minibatch
 // gathering and bookkeeping cost on top.
-//   ragdoll-bench-learner CONFIG [--repeats R]
+//   ragdoll-bench-learner CONFIG [--repeats R] [--threads T] [--replicas N]
+// With --replicas N, the same update also runs on a group of N replica processes (c10d Gloo on
+// loopback, replica i pinned to core i, each on its share of the buffer), after one replica
+// pinned to core 0: the group's samples/s against one replica's, with nothing else running. That
+// is the learner's own scaling; ragdoll-bench-cluster measures it with the broker and actors.
 #include <torch/torch.h>
 #include <CLI/CLI.hpp>
 
@@ -10,58 +14,151 @@
 #include <chrono>
 #include <cstdio>
 #include <random>
+#include <string>
+#include <vector>
+
+#include <sched.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "actor/rollout.h"
 #include "cli/experiment.h"
 #include "common/median.h"
 #include "learner/learner.h"
+#include "learner/replica_group.h"
 
 namespace {
 
+using namespace ragdoll;
 using Clock = std::chrono::steady_clock;
+
+void PinToCore(int core) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(core % static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN))), &set);
+  sched_setaffinity(0, sizeof(set), &set);
+}
+
+// Fills the learner's buffer (its share, for a replica) with synthetic segments of the right
+// sizes: an update's cost does not depend on the values.
+void Fill(learner::Learner& l, int T, int O, int A, std::mt19937& rng) {
+  std::normal_distribution<float> g(0, 1);
+  std::vector<float> obs((T + 1) * O), act(T * A), logp(T, -30.0f), rew(T);
+  std::vector<uint8_t> flags(T, 0);
+  while (!l.Ready()) {
+    for (float& x : obs) x = g(rng);
+    for (float& x : act) x = 0.3f * g(rng);
+    for (float& x : rew) x = 0.5f + 0.1f * g(rng);
+    v1::TrajectorySegment s;
+    s.set_policy_version(l.version());
+    *s.mutable_observations() = wire::FloatTensor(obs.data(), {T + 1, O});
+    *s.mutable_actions() = wire::FloatTensor(act.data(), {T, A});
+    *s.mutable_log_probs() = wire::FloatTensor(logp.data(), {T});
+    *s.mutable_rewards() = wire::FloatTensor(rew.data(), {T});
+    *s.mutable_terminated() = wire::ByteTensor(flags.data(), {T});
+    *s.mutable_truncated() = wire::ByteTensor(flags.data(), {T});
+    *s.mutable_final_observations() = wire::FloatTensor(obs.data(), {0, O});
+    l.Add(s);
+  }
+}
+
+// One replica of a group: `repeats` updates after one to warm up; rank 0 prints the median of
+// the group's samples per second per epoch on stdout.
+int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int repeats) {
+  PinToCore(rank);
+  at::set_num_threads(1);
+  const learner::TrainerConfig& c = e.trainer;
+  actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
+  const int O = probe.spec().observation_size, A = probe.spec().action_size;
+  learner::ReplicaGroupConfig gc;
+  gc.rank = rank;
+  gc.size = replicas;
+  gc.store_port = port;
+  learner::ReplicaGroup group(gc);
+  learner::Learner l(c, O, A, &group);
+  l.SyncFromRankZero();
+  std::mt19937 rng(static_cast<unsigned>(1 + rank));
+  std::vector<double> rates;
+  for (int r = 0; r <= repeats; ++r) {
+    Fill(l, c.time_horizon, O, A, rng);
+    l.AgreeToUpdate(false);
+    learner::UpdateStats u = l.Update();
+    if (r > 0) rates.push_back(static_cast<double>(u.samples) * c.num_epoch / u.seconds);
+  }
+  if (rank == 0) std::printf("%.1f\n", Median(rates));
+  return 0;
+}
+
+// Starts `replicas` copies of this program as a group and returns rank 0's figure.
+double RunGroup(const std::string& config, int replicas, int port, int repeats) {
+  int out[2];
+  if (pipe(out) != 0) throw std::runtime_error("pipe failed");
+  std::vector<pid_t> children;
+  // Each child's arguments are made before fork: between fork and exec only system calls run.
+  std::vector<std::vector<std::string>> args;
+  for (int rank = 0; rank < replicas; ++rank) {
+    args.push_back({"ragdoll-bench-learner", config, "--repeats", std::to_string(repeats),
+                    "--replicas", std::to_string(replicas), "--store-port", std::to_string(port),
+                    "--rank", std::to_string(rank)});
+  }
+  for (int rank = 0; rank < replicas; ++rank) {
+    std::vector<char*> argv;
+    for (auto& a : args[rank]) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = fork();
+    if (pid == 0) {
+      dup2(rank == 0 ? out[1] : STDERR_FILENO, STDOUT_FILENO);
+      close(out[0]);
+      close(out[1]);
+      execv("/proc/self/exe", argv.data());
+      _exit(127);
+    }
+    children.push_back(pid);
+  }
+  close(out[1]);
+  std::string text;
+  char buffer[256];
+  for (ssize_t n; (n = read(out[0], buffer, sizeof(buffer))) > 0;) text.append(buffer, n);
+  close(out[0]);
+  bool ok = true;
+  for (pid_t pid : children) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ok = ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  }
+  if (!ok || text.empty()) throw std::runtime_error("a learner replica failed");
+  return std::stod(text);
+}
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  using namespace ragdoll;
   CLI::App app("PPO update samples/s vs raw libtorch forward+backward+Adam.");
   std::string config;
-  int repeats = 5, threads = 1;
+  int repeats = 5, threads = 1, replicas = 1, port = 29560, rank = -1;
   app.add_option("config", config, "experiment YAML")->required();
   app.add_option("--repeats", repeats)->capture_default_str();
   app.add_option("--threads", threads, "libtorch intra-op threads")->capture_default_str();
+  app.add_option("--replicas", replicas,
+                 "also run a group of this many replica processes, one core each")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  app.add_option("--store-port", port, "the group's TCPStore port")->capture_default_str();
+  app.add_option("--rank", rank)->group("");  // a replica started by the benchmark itself
   CLI11_PARSE(app, argc, argv);
   try {
     cli::Experiment e = cli::ReadExperiment(config);
-    at::set_num_threads(threads);
+    if (rank >= 0) return RunReplica(e, rank, replicas, port, repeats);
+    // Beside a group, the single learner gets the same single core as each replica.
+    if (replicas > 1) PinToCore(0);
+    at::set_num_threads(replicas > 1 ? 1 : threads);
+    if (replicas > 1) threads = 1;
     const learner::TrainerConfig& c = e.trainer;
     actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
     const int O = probe.spec().observation_size, A = probe.spec().action_size;
     const int T = c.time_horizon;
     learner::Learner l(c, O, A);
-
-    // Synthetic segments of the right sizes (the update's cost does not depend on the values).
     std::mt19937 rng(1);
-    std::normal_distribution<float> g(0, 1);
-    std::vector<float> obs((T + 1) * O), act(T * A), logp(T, -30.0f), rew(T);
-    std::vector<uint8_t> flags(T, 0);
-    auto fill = [&]() {
-      while (!l.Ready()) {
-        for (float& x : obs) x = g(rng);
-        for (float& x : act) x = 0.3f * g(rng);
-        for (float& x : rew) x = 0.5f + 0.1f * g(rng);
-        v1::TrajectorySegment s;
-        s.set_policy_version(l.version());
-        *s.mutable_observations() = wire::FloatTensor(obs.data(), {T + 1, O});
-        *s.mutable_actions() = wire::FloatTensor(act.data(), {T, A});
-        *s.mutable_log_probs() = wire::FloatTensor(logp.data(), {T});
-        *s.mutable_rewards() = wire::FloatTensor(rew.data(), {T});
-        *s.mutable_terminated() = wire::ByteTensor(flags.data(), {T});
-        *s.mutable_truncated() = wire::ByteTensor(flags.data(), {T});
-        *s.mutable_final_observations() = wire::FloatTensor(obs.data(), {0, O});
-        l.Add(s);
-      }
-    };
 
     // Raw libtorch on networks of the same shapes.
     GaussianPolicy policy(O, A, c.network);
@@ -76,7 +173,7 @@ int main(int argc, char** argv) {
 
     std::vector<double> ppo, raw, ratio;
     for (int r = 0; r < repeats; ++r) {
-      fill();
+      Fill(l, T, O, A, rng);
       learner::UpdateStats u = l.Update();
       double ppo_rate = static_cast<double>(u.samples) * c.num_epoch / u.seconds;
       auto t0 = Clock::now();
@@ -102,6 +199,12 @@ int main(int argc, char** argv) {
     std::printf("  raw libtorch fwd+bwd+Adam  %8.0f samples/s\n", Median(raw));
     std::printf("  PPO update (per epoch)     %8.0f samples/s  ratio %.3f\n", Median(ppo),
                 Median(ratio));
+    if (replicas > 1) {
+      double group = RunGroup(config, replicas, port, repeats);
+      std::printf("  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (%.2f per "
+                  "replica)\n",
+                  replicas, group, group / Median(ppo), group / Median(ppo) / replicas);
+    }
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "ragdoll-bench-learner: %s\n", ex.what());
     return 1;

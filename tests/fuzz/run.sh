@@ -1,18 +1,18 @@
 #!/usr/bin/env bash
-# Runs every libFuzzer target (tests/fuzz/, built with `cmake --preset fuzz && cmake --build
-# --preset fuzz`) for SECONDS each on a fresh corpus seeded with real inputs: the messages the
+# Runs every libFuzzer target (tests/fuzz/, built with `cmake --preset sanitize && cmake --build
+# --preset sanitize`) for SECONDS each on a fresh corpus seeded with real inputs: the messages the
 # system sends, BVH files written by `ragdoll motion export` (three namings, two unit systems),
 # the shipped clips and DeepMimic's motion files, every shipped and test config. Prints
 # executions, executions/s and coverage per target; fails on any crash, leak or sanitizer report,
 # keeping the reproducer under OUT/artifacts.
-#   tests/fuzz/run.sh [SECONDS=60] [OUT=build-fuzz/fuzz-run] [TARGET...]
+#   tests/fuzz/run.sh [SECONDS=60] [OUT=build-sanitize/fuzz-run] [TARGET...]
 # FUZZ_MAX_LEN (default 131072 bytes) bounds the inputs: smaller runs many times faster.
 set -u
 repo=$(cd "$(dirname "$0")/../.." && pwd)
-seconds=${1:-60} out=${2:-$repo/build-fuzz/fuzz-run}
+seconds=${1:-60} out=${2:-$repo/build-sanitize/fuzz-run}
 shift 2 2>/dev/null || shift $#
 targets=("$@"); [ ${#targets[@]} -gt 0 ] || targets=(wire bvh motion config)
-bin=$repo/build-fuzz/tests/fuzz
+bin=$repo/build-sanitize/tests/fuzz
 ragdoll=${RAGDOLL:-$repo/build/ragdoll}
 rm -rf "$out"; mkdir -p "$out/artifacts"
 
