@@ -201,9 +201,10 @@ int main(int argc, char** argv) {
                 Median(ratio));
     if (replicas > 1) {
       double group = RunGroup(config, replicas, port, repeats);
-      std::printf("  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (%.2f per "
-                  "replica)\n",
-                  replicas, group, group / Median(ppo), group / Median(ppo) / replicas);
+      std::printf(
+          "  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (%.2f per "
+          "replica)\n",
+          replicas, group, group / Median(ppo), group / Median(ppo) / replicas);
     }
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "ragdoll-bench-learner: %s\n", ex.what());
