@@ -140,7 +140,8 @@ int main(int argc, char** argv) {
   app.add_option("--repeats", repeats)->capture_default_str();
   app.add_option("--threads", threads, "libtorch intra-op threads")->capture_default_str();
   app.add_option("--replicas", replicas,
-                 "also run a group of this many replica processes, one core each")
+                 "also run a group of this many replica processes, one core and thread each "
+                 "(then --threads is 1)")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
   app.add_option("--store-port", port, "the group's TCPStore port")->capture_default_str();
@@ -149,10 +150,12 @@ int main(int argc, char** argv) {
   try {
     cli::Experiment e = cli::ReadExperiment(config);
     if (rank >= 0) return RunReplica(e, rank, replicas, port, repeats);
-    // Beside a group, the single learner gets the same single core as each replica.
-    if (replicas > 1) PinToCore(0);
-    at::set_num_threads(replicas > 1 ? 1 : threads);
-    if (replicas > 1) threads = 1;
+    if (replicas > 1) {
+      // Beside a group, the single learner gets what each replica gets: one core, one thread.
+      PinToCore(0);
+      threads = 1;
+    }
+    at::set_num_threads(threads);
     const learner::TrainerConfig& c = e.trainer;
     actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
     const int O = probe.spec().observation_size, A = probe.spec().action_size;
