@@ -115,6 +115,9 @@ class Learner {
   void SaveArchive(torch::serialize::OutputArchive& archive, const std::string& config_text,
                    bool with_optimizer = true);
   std::string LoadArchive(torch::serialize::InputArchive& archive, const std::string& source);
+  // With replicas: makes every parameter's gradient a view into group_gradients_ (re-made if a
+  // parameter was replaced), so one all-reduce works on the gradients without copies.
+  void ViewGradientsInGroupBuffer(const std::vector<torch::Tensor>& params);
 
   TrainerConfig config_;
   int observation_size_, action_size_;
@@ -138,6 +141,8 @@ class Learner {
   // The adaptive schedule's current rate (saved with checkpoints, so --resume continues it).
   double adaptive_learning_rate_;
   EpisodeStatsSum episodes_;
+  // Every gradient, then one slot for the step's KL: what the replicas all-reduce each step.
+  torch::Tensor group_gradients_;
 };
 
 }  // namespace ragdoll::learner
