@@ -7,6 +7,8 @@
 // loopback, replica i pinned to core i, each on its share of the buffer), after one replica
 // pinned to core 0: the group's samples/s against one replica's, with nothing else running. That
 // is the learner's own scaling; ragdoll-bench-cluster measures it with the broker and actors.
+// The group also times its gradient all-reduce alone, against the share of a gradient step it
+// would cost each replica.
 #include <torch/torch.h>
 #include <CLI/CLI.hpp>
 
@@ -85,12 +87,34 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
     learner::UpdateStats u = l.Update();
     if (r > 0) rates.push_back(static_cast<double>(u.samples) * c.num_epoch / u.seconds);
   }
-  if (rank == 0) std::printf("%.1f\n", Median(rates));
+  // The gradient all-reduce on its own, as each gradient step above makes it: every trained
+  // parameter and the KL slot, in float32.
+  GaussianPolicy policy(O, A, c.network);
+  ValueNetwork critic(O, c.network);
+  int64_t floats = 1;
+  for (const auto& p : policy->parameters()) {
+    if (c.learn_log_std || !p.is_same(policy->log_std)) floats += p.numel();
+  }
+  for (const auto& p : critic->parameters()) floats += p.numel();
+  torch::Tensor gradients = torch::zeros({floats});
+  std::vector<double> times;
+  for (int i = 0; i < 60; ++i) {
+    auto t0 = Clock::now();
+    group.Sum(gradients);
+    if (i >= 10) times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
+  }
+  if (rank == 0) std::printf("%.1f %.6f %lld\n", Median(rates), Median(times), (long long)floats);
   return 0;
 }
 
-// Starts `replicas` copies of this program as a group and returns rank 0's figure.
-double RunGroup(const std::string& config, int replicas, int port, int repeats) {
+struct GroupFigures {
+  double samples_per_second;  // the group's, per epoch
+  double allreduce_seconds;   // one gradient all-reduce alone (median)
+  long long gradient_floats;
+};
+
+// Starts `replicas` copies of this program as a group and returns rank 0's figures.
+GroupFigures RunGroup(const std::string& config, int replicas, int port, int repeats) {
   int out[2];
   if (pipe(out) != 0) throw std::runtime_error("pipe failed");
   std::vector<pid_t> children;
@@ -126,8 +150,12 @@ double RunGroup(const std::string& config, int replicas, int port, int repeats) 
     waitpid(pid, &status, 0);
     ok = ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
   }
-  if (!ok || text.empty()) throw std::runtime_error("a learner replica failed");
-  return std::stod(text);
+  GroupFigures f{};
+  if (!ok || std::sscanf(text.c_str(), "%lf %lf %lld", &f.samples_per_second, &f.allreduce_seconds,
+                         &f.gradient_floats) != 3) {
+    throw std::runtime_error("a learner replica failed");
+  }
+  return f;
 }
 
 }  // namespace
@@ -203,11 +231,20 @@ int main(int argc, char** argv) {
     std::printf("  PPO update (per epoch)     %8.0f samples/s  ratio %.3f\n", Median(ppo),
                 Median(ratio));
     if (replicas > 1) {
-      double group = RunGroup(config, replicas, port, repeats);
+      GroupFigures g = RunGroup(config, replicas, port, repeats);
+      const double group = g.samples_per_second;
       std::printf(
           "  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (%.2f per "
           "replica)\n",
           replicas, group, group / Median(ppo), group / Median(ppo) / replicas);
+      // What one replica's share of a gradient step (1/N of the minibatch) takes a single
+      // learner, overheads of the update included.
+      const double step = static_cast<double>(mb) / replicas / Median(ppo);
+      std::printf(
+          "  gradient all-reduce alone    %8.2f ms for %lld floats; 1/%d of a minibatch takes "
+          "one learner %.1f ms (%.0f %%)\n",
+          1e3 * g.allreduce_seconds, g.gradient_floats, replicas, 1e3 * step,
+          100 * g.allreduce_seconds / step);
     }
   } catch (const std::exception& ex) {
     std::fprintf(stderr, "ragdoll-bench-learner: %s\n", ex.what());
