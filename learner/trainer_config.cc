@@ -36,8 +36,9 @@ int64_t AtLeast(const ConfigSection& s, const std::string& key, int64_t fallback
 }
 
 // The same for counts kept in an int.
-int IntAtLeast(const ConfigSection& s, const std::string& key, int fallback, int low) {
-  return static_cast<int>(AtLeast(s, key, fallback, low, std::numeric_limits<int>::max()));
+int IntAtLeast(const ConfigSection& s, const std::string& key, int fallback, int low,
+               int high = std::numeric_limits<int>::max()) {
+  return static_cast<int>(AtLeast(s, key, fallback, low, high));
 }
 
 }  // namespace
@@ -75,8 +76,10 @@ TrainerConfig ReadTrainerConfig(const ConfigSection& s) {
 
   ConfigSection n = s.Section("network_settings");
   c.normalize = n.Get<bool>("normalize", c.normalize);
-  int units = IntAtLeast(n, "hidden_units", 512, 1);
-  int layers = IntAtLeast(n, "num_layers", 2, 1);
+  // Far above any network this task trains (ML-Agents' defaults are 128 x 2), low enough that a
+  // typo cannot ask for gigabytes: fuzz_config spent most of its time building 1e8-layer lists.
+  int units = IntAtLeast(n, "hidden_units", 512, 1, 8192);
+  int layers = IntAtLeast(n, "num_layers", 2, 1, 64);
   c.network.hidden_units.assign(layers, units);
   c.network.activation = n.Get<std::string>("activation", c.network.activation);
   if (c.network.activation != "tanh" && c.network.activation != "relu" &&

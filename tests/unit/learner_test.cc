@@ -693,6 +693,21 @@ TEST(TrainerConfig, CountsBeyondTheirTypeAreRefusedNamingTheKey) {
             30000000);
 }
 
+// Found by fuzz_config (its slowest inputs): `num_layers: 1e8` built a list of 1e8 layer widths
+// before anything could refuse the network.
+TEST(TrainerConfig, NetworkSizesHaveACeilingNamingTheKey) {
+  auto error = [](const std::string& yaml) {
+    return ErrorOf([&] { ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml")); });
+  };
+  EXPECT_THAT(error("network_settings: {num_layers: 1e8}"),
+              ::testing::HasSubstr("t.yaml:1: network_settings.num_layers: must be at most 64"));
+  EXPECT_THAT(error("network_settings: {hidden_units: 100000}"),
+              ::testing::HasSubstr("network_settings.hidden_units: must be at most 8192"));
+  TrainerConfig c = ReadTrainerConfig(ConfigSection::FromString(
+      "network_settings: {num_layers: 64, hidden_units: 8192}", "t.yaml"));
+  EXPECT_EQ(c.network.hidden_units, std::vector<int>(64, 8192));
+}
+
 TEST(TrainerConfig, ReadsTheLearningRateSchedule) {
   auto read = [](const std::string& yaml) {
     return ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml"));
