@@ -39,7 +39,9 @@ grep -q "dropped a segment (non_finite)" "$work/learner.log" || fail "learner di
 # Let it learn (about 140 k samples), then kill the learner without warning and resume from its last checkpoint.
 wait_for 150 "35 iterations" bash -c "[ \$(grep -c '^\[' '$work/learner.log') -ge 35 ]"
 kill -9 "$learner"; wait "$learner" 2>/dev/null
-newest=$(ls "$work/$run/checkpoints" | sort | tail -n 1)
+last_version=$(grep "^\[" "$work/learner.log" | tail -n 1 | sed 's/.* v\([0-9]*\) .*/\1/')
+# A checkpoint being written when the learner died is left as *.tmp: not a checkpoint.
+newest=$(ls "$work/$run/checkpoints" | grep "^checkpoint-[0-9]*\.pt$" | sort | tail -n 1)
 [ -n "$newest" ] || fail "no checkpoint written"
 samples=$(echo "$newest" | sed 's/checkpoint-0*\([0-9]*\)\.pt/\1/')
 "$ragdoll" learner "${common[@]}" --run-dir "$work/$run" --resume > "$work/learner2.log" 2>&1 & learner=$!; pids+=($learner)
@@ -51,7 +53,10 @@ version=$(echo "$resumed" | sed 's/.*policy v\([0-9]*\),.*/\1/')
 first=$(grep -m1 "^\[" "$work/learner2.log")
 next_version=$(echo "$first" | sed 's/.* v\([0-9]*\) .*/\1/')
 next_samples=$(echo "$first" | sed 's/.*samples \([0-9]*\) .*/\1/')
-[ "$next_version" -eq $((version + 1)) ] || fail "version did not continue: checkpoint v$version, then v$next_version"
+# Numbering continues after the checkpoint's version, or above the newest version the actors
+# still run (the killed learner's last, when they got it before the kill): never backward.
+[ "$next_version" -gt "$version" ] && [ "$next_version" -le $((last_version + 1)) ] ||
+  fail "version did not continue: checkpoint v$version, last before the kill v$last_version, then v$next_version"
 [ "$next_samples" -gt "$samples" ] || fail "samples did not continue: $samples then $next_samples"
 echo "resumed at v$version / $samples samples; next iteration v$next_version / $next_samples samples"
 
