@@ -121,9 +121,14 @@ void Learner::MergeStatistics(RunningStats& stats, const torch::Tensor& rows) {
               std::vector<double>(sp, sp + m2.numel()));
 }
 
+int64_t Learner::trained_parameters() const {
+  int64_t n = 0;
+  for (const auto& p : optimizer_->param_groups()[0].params()) n += p.numel();
+  return n;
+}
+
 void Learner::ViewGradientsInGroupBuffer(const std::vector<torch::Tensor>& params) {
-  int64_t total = 1;  // the KL slot
-  for (const auto& p : params) total += p.numel();
+  const int64_t total = trained_parameters() + 1;  // and the KL slot
   bool viewing = group_gradients_.defined() && group_gradients_.numel() == total;
   float* base = viewing ? group_gradients_.data_ptr<float>() : nullptr;
   int64_t offset = 0;

@@ -96,6 +96,9 @@ class Learner {
   int64_t iterations() const { return iterations_; }
   int64_t stale_dropped() const { return stale_dropped_; }
   int64_t buffered_samples() const { return buffered_samples_; }
+  // How many numbers the optimizer trains: what each gradient step's all-reduce carries (with
+  // one more, the step's KL) when there are replicas.
+  int64_t trained_parameters() const;
   const RunningStats& stats() const { return stats_; }
   const RunningStats& return_stats() const { return return_stats_; }
   const EpisodeStatsSum& episodes() const { return episodes_; }

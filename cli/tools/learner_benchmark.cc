@@ -89,13 +89,7 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
   }
   // The gradient all-reduce on its own, as each gradient step above makes it: every trained
   // parameter and the KL slot, in float32.
-  GaussianPolicy policy(O, A, c.network);
-  ValueNetwork critic(O, c.network);
-  int64_t floats = 1;
-  for (const auto& p : policy->parameters()) {
-    if (c.learn_log_std || !p.is_same(policy->log_std)) floats += p.numel();
-  }
-  for (const auto& p : critic->parameters()) floats += p.numel();
+  const int64_t floats = l.trained_parameters() + 1;
   torch::Tensor gradients = torch::zeros({floats});
   std::vector<double> times;
   for (int i = 0; i < 60; ++i) {

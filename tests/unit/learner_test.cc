@@ -678,11 +678,14 @@ TEST(TrainerConfig, ReadsValueNormalisationAndFixedNoise) {
                ConfigError);
 }
 
+// The message ReadTrainerConfig refuses `yaml` with (as file t.yaml).
+std::string TrainerConfigError(const std::string& yaml) {
+  return ErrorOf([&] { ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml")); });
+}
+
 // Found by fuzz_config: `max_steps: 4e36` was cast to int64 (undefined behaviour).
 TEST(TrainerConfig, CountsBeyondTheirTypeAreRefusedNamingTheKey) {
-  auto error = [](const std::string& yaml) {
-    return ErrorOf([&] { ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml")); });
-  };
+  auto error = TrainerConfigError;
   EXPECT_THAT(error("max_steps: 4e36"),
               ::testing::HasSubstr("max_steps: must be at most 1000000000000000"));
   EXPECT_THAT(error("time_horizon: 1e10"),
@@ -696,9 +699,7 @@ TEST(TrainerConfig, CountsBeyondTheirTypeAreRefusedNamingTheKey) {
 // Found by fuzz_config (its slowest inputs): `num_layers: 1e8` built a list of 1e8 layer widths
 // before anything could refuse the network.
 TEST(TrainerConfig, NetworkSizesHaveACeilingNamingTheKey) {
-  auto error = [](const std::string& yaml) {
-    return ErrorOf([&] { ReadTrainerConfig(ConfigSection::FromString(yaml, "t.yaml")); });
-  };
+  auto error = TrainerConfigError;
   EXPECT_THAT(error("network_settings: {num_layers: 1e8}"),
               ::testing::HasSubstr("t.yaml:1: network_settings.num_layers: must be at most 64"));
   EXPECT_THAT(error("network_settings: {hidden_units: 100000}"),
