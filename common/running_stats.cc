@@ -6,26 +6,32 @@
 
 namespace ragdoll {
 
+RunningStats::Moments RunningStats::BatchMoments(const float* batch, int64_t rows, int size) {
+  const size_t n = static_cast<size_t>(std::max(size, 0));
+  Moments m{std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)};
+  if (rows <= 0) return m;
+  // Two passes over the batch: its mean, then its spread about that mean, which avoids the
+  // cancellation of sum(x^2) - n * mean^2 when the mean is large against the spread. Row by
+  // row, so memory is read in order; each column still sums its rows first to last.
+  for (int64_t i = 0; i < rows; ++i) {
+    const float* row = batch + static_cast<size_t>(i) * n;
+    for (size_t j = 0; j < n; ++j) m.mean[j] += static_cast<double>(row[j]);
+  }
+  for (double& x : m.mean) x /= static_cast<double>(rows);
+  for (int64_t i = 0; i < rows; ++i) {
+    const float* row = batch + static_cast<size_t>(i) * n;
+    for (size_t j = 0; j < n; ++j) {
+      const double d = static_cast<double>(row[j]) - m.mean[j];
+      m.m2[j] += d * d;
+    }
+  }
+  return m;
+}
+
 void RunningStats::Update(const float* batch, int64_t rows) {
   if (rows <= 0) return;
-  const size_t size = mean_.size();
-  const double n_b = static_cast<double>(rows);
-  std::vector<double> mean_b(size), m2_b(size);
-  for (size_t j = 0; j < size; ++j) {
-    // Two passes over the batch: its mean, then its spread about that mean, which avoids the
-    // cancellation of sum(x^2) - n * mean^2 when the mean is large against the spread.
-    double sum = 0.0;
-    for (int64_t i = 0; i < rows; ++i)
-      sum += static_cast<double>(batch[static_cast<size_t>(i) * size + j]);
-    mean_b[j] = sum / n_b;
-    double m2 = 0.0;
-    for (int64_t i = 0; i < rows; ++i) {
-      const double d = static_cast<double>(batch[static_cast<size_t>(i) * size + j]) - mean_b[j];
-      m2 += d * d;
-    }
-    m2_b[j] = m2;
-  }
-  Merge(n_b, mean_b, m2_b);
+  Moments m = BatchMoments(batch, rows, size());
+  Merge(static_cast<double>(rows), m.mean, m.m2);
 }
 
 void RunningStats::Merge(double count, const std::vector<double>& mean,

@@ -25,8 +25,15 @@ class RunningStats {
   const std::vector<double>& var() const { return var_; }
   double count() const { return count_; }
 
-  // Merges a batch of `rows` observations ([rows, size], row-major) with Chan et al.'s parallel
-  // update, so the result equals the statistics of everything seen as one batch.
+  // A batch's own moments: per-column mean and m2 (the sum of squared deviations from that
+  // mean) of `rows` rows of `size` ([rows, size], row-major); zeros when there are no rows.
+  struct Moments {
+    std::vector<double> mean, m2;
+  };
+  static Moments BatchMoments(const float* batch, int64_t rows, int size);
+
+  // Merges a batch of `rows` observations ([rows, size()], row-major) with Chan et al.'s
+  // parallel update, so the result equals the statistics of everything seen as one batch.
   void Update(const float* batch, int64_t rows);
   // Merges a batch given by its moments: `count` rows, per-column `mean` and `m2` (the sum of
   // squared deviations from that mean). Learner replicas merge their batches' moments first, so

@@ -103,22 +103,28 @@ void Learner::MergeStatistics(RunningStats& stats, const torch::Tensor& rows) {
     stats.Update(x.data_ptr<float>(), x.size(0));
     return;
   }
-  // The union's mean first, then each replica's squared deviations from it: the same two passes
-  // as RunningStats::Update, over every replica's rows.
-  torch::Tensor d = x.to(torch::kFloat64);
-  torch::Tensor sums =
-      torch::cat({torch::tensor({static_cast<double>(x.size(0))}, torch::kFloat64), d.sum(0)});
+  // Each replica's own moments, then the union's (Chan et al.): its mean from the counts and
+  // sums, then its squared deviations as each replica's plus its mean's distance from the union's.
+  const int size = stats.size();
+  const double n = static_cast<double>(x.size(0));
+  RunningStats::Moments local = RunningStats::BatchMoments(x.data_ptr<float>(), x.size(0), size);
+  torch::Tensor sums = torch::empty({size + 1}, torch::kFloat64);
+  double* s = sums.data_ptr<double>();
+  s[0] = n;
+  for (int j = 0; j < size; ++j) s[1 + j] = n * local.mean[j];
   group_->Sum(sums);
-  const double count = sums[0].item<double>();
+  const double count = s[0];
   if (count <= 0) return;
-  torch::Tensor mean = sums.slice(0, 1) / count;
-  torch::Tensor m2 = (d - mean).pow(2).sum(0).contiguous();
+  std::vector<double> mean(size);
+  for (int j = 0; j < size; ++j) mean[j] = s[1 + j] / count;
+  torch::Tensor m2 = torch::empty({size}, torch::kFloat64);
+  double* m = m2.data_ptr<double>();
+  for (int j = 0; j < size; ++j) {
+    const double d = local.mean[j] - mean[j];
+    m[j] = local.m2[j] + n * d * d;
+  }
   group_->Sum(m2);
-  mean = mean.contiguous();
-  const double* mp = mean.data_ptr<double>();
-  const double* sp = m2.data_ptr<double>();
-  stats.Merge(count, std::vector<double>(mp, mp + mean.numel()),
-              std::vector<double>(sp, sp + m2.numel()));
+  stats.Merge(count, mean, std::vector<double>(m, m + size));
 }
 
 int64_t Learner::trained_parameters() const {
@@ -304,16 +310,17 @@ UpdateStats Learner::Update() {
         loss.loss.backward();
       } else {
         // One all-reduce per step, on the gradients in place: every gradient and this step's
-        // KL, averaged over the replicas. (Sending the critic's while the policy's backward pass
-        // runs measured no faster on pinned cores: the transfer then takes the same core.)
+        // KL, each divided by the group's size first, so their sum is the group's mean.
+        // Overlapping it with the backward pass measured slower on pinned cores, both by hand
+        // (the critic's bucket) and with DDP's own c10d::Reducer: the transfer takes the same
+        // core (deploy/README.md, "Sizing").
         ViewGradientsInGroupBuffer(params);
         group_gradients_.zero_();
-        loss.loss.backward();
-        const int64_t kl_slot = group_gradients_.numel() - 1;
-        group_gradients_[kl_slot] = update_kl;
+        (loss.loss / replicas()).backward();
+        float* kl_slot = group_gradients_.data_ptr<float>() + group_gradients_.numel() - 1;
+        *kl_slot = static_cast<float>(update_kl / replicas());
         group_->Sum(group_gradients_);
-        group_gradients_.div_(replicas());
-        update_kl = group_gradients_[kl_slot].item<double>();
+        update_kl = *kl_slot;
       }
       double norm = torch::nn::utils::clip_grad_norm_(params, config_.max_grad_norm);
       if (!std::isfinite(norm)) {

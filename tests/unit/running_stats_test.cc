@@ -107,6 +107,19 @@ TEST(RunningStats, ZeroVarianceColumnIsScaledByEpsilonNotInfinity) {
   EXPECT_EQ(out[1], 0.0f);
 }
 
+TEST(RunningStats, BatchMomentsMatchHandComputation) {
+  // Columns {1, 3, 5} and {10, 20, 60}: means 3 and 30; squared deviations 4 + 0 + 4 and
+  // 400 + 100 + 900.
+  const float batch[] = {1, 10, 3, 20, 5, 60};
+  RunningStats::Moments m = RunningStats::BatchMoments(batch, 3, 2);
+  EXPECT_EQ(m.mean, (std::vector<double>{3.0, 30.0}));
+  EXPECT_EQ(m.m2, (std::vector<double>{8.0, 1400.0}));
+  // No rows: zeros, never 0 / 0.
+  m = RunningStats::BatchMoments(nullptr, 0, 2);
+  EXPECT_EQ(m.mean, (std::vector<double>{0.0, 0.0}));
+  EXPECT_EQ(m.m2, (std::vector<double>{0.0, 0.0}));
+}
+
 TEST(RunningStats, EmptyBatchChangesNothing) {
   RunningStats stats({1.5, -0.5}, {2.0, 0.1}, 12);
   const float unused[] = {100.0f, 100.0f};
