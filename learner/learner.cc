@@ -313,7 +313,7 @@ UpdateStats Learner::Update() {
         // KL, each divided by the group's size first, so their sum is the group's mean.
         // Overlapping it with the backward pass measured slower on pinned cores, both by hand
         // (the critic's bucket) and with DDP's own c10d::Reducer: the transfer takes the same
-        // core (deploy/README.md, "Sizing").
+        // core (deploy/README.md, "Sizing a cluster").
         ViewGradientsInGroupBuffer(params);
         group_gradients_.zero_();
         (loss.loss / replicas()).backward();
