@@ -58,7 +58,7 @@ namespace {
 }
 
 // A replica polls a collective for up to this long before it blocks on it. A gradient step's
-// all-reduce is shorter: blocked, it took 2.3-3.8 ms over loopback, polled 1.1 ms
+// all-reduce is shorter: blocked, it took 2.3-3.8 ms over loopback, polled 1.1-1.4 ms
 // (ragdoll-bench-learner --replicas 2), probably because a blocked thread lets its core go idle
 // and an idle core answers each of Gloo's messages late. Longer waits (a replica still filling
 // its buffer) block after this, leaving the core to the actors.

@@ -3,7 +3,7 @@
 // collectives at fixed points of every update, so every replica applies the same steps and keeps
 // the same weights. A replica that dies makes the others' next collective throw at once (Gloo
 // sees the closed connection), or after `timeout` when it hangs. A replica polls each collective
-// for up to 10 ms before it blocks on it, which more than halves a gradient step's all-reduce.
+// for up to 10 ms before it blocks on it (replica_group.cc says why).
 #pragma once
 
 #include <torch/torch.h>

@@ -15,11 +15,14 @@ seed=${CHAOS_SEED:-$RANDOM}
 RANDOM=$seed
 work=$(mktemp -d /tmp/ragdoll-chaos.XXXXXX)
 # The config with max_steps out of reach, so that only the killer ends a process (a fast machine
-# finished learn_stand's 1 M samples inside 240 s), and its file paths made absolute.
+# finished learn_stand's 1 M samples inside 240 s). The copy lives elsewhere, so the keys the
+# reader resolves against the config's folder (motion, also in a motion list, character, keys)
+# are made absolute.
 config=$work/chaos.yaml
 config_dir=$(cd "$(dirname "$2")" && pwd)
 sed -E -e 's/^(\s*max_steps:).*/\1 1.0e9/' \
-  -e "s#^(\\s*(motion|character):\\s*)([^/[:space:]][^[:space:]]*)#\\1$config_dir/\\3#" "$2" > "$config"
+  -e "s#^(\\s*(- )?(motion|character|keys):\\s*)([^/\"'[:space:]][^[:space:]]*)#\\1$config_dir/\\4#" \
+  "$2" > "$config"
 run=chaos port=$((31000 + RANDOM % 2000))
 declare -A pid kills restarts
 roles=(broker learner actor-0 actor-1)
