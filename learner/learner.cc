@@ -90,10 +90,10 @@ torch::Tensor Learner::ValueToCritic(const torch::Tensor& value) const {
   return (value - return_stats_.mean()[0]) / std::sqrt(return_stats_.var()[0] + 1e-8);
 }
 
-bool Learner::AgreeToUpdate(bool stopping) {
+bool Learner::AgreeToUpdate(bool stopping, const std::function<void()>& meanwhile) {
   if (group_ == nullptr) return !stopping;
   torch::Tensor stop = torch::tensor({int64_t{stopping ? 1 : 0}}, torch::kInt64);
-  group_->Sum(stop);
+  group_->Sum(stop, meanwhile);
   return stop.item<int64_t>() == 0;
 }
 
@@ -265,11 +265,21 @@ UpdateStats Learner::Update() {
 
   std::vector<torch::Tensor> params = optimizer_->param_groups()[0].params();
   int64_t minibatches = 0;
-  const int64_t mb = std::min(local_batch_size_, B);
-  // Every replica takes the same number of gradient steps.
+  int64_t mb = std::min(local_batch_size_, B);
+  // Every replica takes the same number of gradient steps. A replica that holds more than its
+  // share (it took segments while waiting for the others) takes larger minibatches, and its
+  // gradient weighs by its minibatch's part of the group's: the group's step is the mean over
+  // the union of the replicas' minibatches, as one learner's would be.
   torch::Tensor steps = torch::tensor({B / mb}, torch::kInt64);
   if (group_ != nullptr) group_->Min(steps);
   const int64_t steps_per_epoch = steps.item<int64_t>();
+  double weight = 1;  // this replica's share of the group's minibatch
+  if (group_ != nullptr) {
+    mb = B / steps_per_epoch;
+    torch::Tensor group_mb = torch::tensor({mb}, torch::kInt64);
+    group_->Sum(group_mb);
+    weight = static_cast<double>(mb) / static_cast<double>(group_mb.item<int64_t>());
+  }
   for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
     torch::Tensor order = torch::randperm(B, torch::kLong);
     // The group's minibatch is the union of the replicas' ones: each step normalises its
@@ -310,15 +320,15 @@ UpdateStats Learner::Update() {
         loss.loss.backward();
       } else {
         // One all-reduce per step, on the gradients in place: every gradient and this step's
-        // KL, each divided by the group's size first, so their sum is the group's mean.
+        // KL, each weighted by this replica's share first, so their sum is the group's mean.
         // Overlapping it with the backward pass measured slower on pinned cores, both by hand
         // (the critic's bucket) and with DDP's own c10d::Reducer: the transfer takes the same
         // core (deploy/README.md, "Sizing a cluster").
         ViewGradientsInGroupBuffer(params);
         group_gradients_.zero_();
-        (loss.loss / replicas()).backward();
+        (loss.loss * weight).backward();
         float* kl_slot = group_gradients_.data_ptr<float>() + group_gradients_.numel() - 1;
-        *kl_slot = static_cast<float>(update_kl / replicas());
+        *kl_slot = static_cast<float>(update_kl * weight);
         group_->Sum(group_gradients_);
         update_kl = *kl_slot;
       }
@@ -353,13 +363,13 @@ UpdateStats Learner::Update() {
   }
   stats.explained_variance = ExplainedVariance(b_values, b_returns);
   if (group_ != nullptr) {
-    // The group's means of what each replica measured on its share.
+    // The group's means of what each replica measured on its share, weighted as its gradients.
     torch::Tensor reported =
         torch::tensor({stats.policy_loss, stats.value_loss, stats.entropy, stats.approx_kl,
                        stats.clip_fraction, stats.explained_variance},
-                      torch::kFloat64);
+                      torch::kFloat64)
+            .mul_(weight);
     group_->Sum(reported);
-    reported.div_(replicas());
     stats.policy_loss = reported[0].item<double>();
     stats.value_loss = reported[1].item<double>();
     stats.entropy = reported[2].item<double>();

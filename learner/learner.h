@@ -5,6 +5,7 @@
 
 #include <torch/torch.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -54,9 +55,16 @@ class Learner {
   // Adds a segment that passed wire::CheckSegment for this learner's sizes.
   Accept Add(const v1::TrajectorySegment& segment);
   bool Ready() const { return buffered_samples_ >= local_buffer_size_; }
+  // Replicas only: a replica may go on taking segments while it waits for the others (below),
+  // up to twice its share; past that it should leave them queued.
+  bool Full() const { return buffered_samples_ >= 2 * local_buffer_size_; }
   // Replicas only: every replica calls this when Ready() or when it is asked to stop; true when
-  // any of them is stopping (then none updates). Alone: !stopping.
-  bool AgreeToUpdate(bool stopping);
+  // none of them is stopping (else none updates). Alone: !stopping. Until the last replica
+  // joins, `meanwhile` runs over and over (each call returning within milliseconds): the
+  // learner process takes fresh segments there, so that a replica dealt more than the others
+  // (one that joined first gets the queued backlog) trains on it now instead of keeping it
+  // queued until it goes stale. The update then weighs each replica by the samples it holds.
+  bool AgreeToUpdate(bool stopping, const std::function<void()>& meanwhile = {});
   // Runs PPO on the buffer, empties it, bumps the policy version. With replicas, every replica
   // calls it together (after AgreeToUpdate), and the episode statistics become the group's.
   UpdateStats Update();

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <thread>
 #include <vector>
 
 #include "common/config_section.h"
@@ -438,6 +439,44 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     }
   };
 
+  // A received message: checked, then buffered, or counted and dropped.
+  auto take = [&](const zmq::message_t& message) {
+    v1::Header header;
+    v1::TrajectorySegment segment;
+    wire::Verdict v = wire::ReadMessage(message.data(), message.size(), endpoints.max_message_bytes,
+                                        &header, &segment);
+    if (v.ok() && header.kind() != v1::KIND_TRAJECTORY) {
+      v = {wire::Rejection::kKind, "expected a trajectory segment"};
+    }
+    if (v.ok() && header.run_id() != config.run_id) {
+      v = {wire::Rejection::kRunId, "segment of run '" + header.run_id() + "'"};
+    }
+    if (v.ok()) v = wire::CheckSegment(segment, config.observation_size, config.action_size);
+    if (!v.ok()) return reject(v);
+    const int64_t lag = learner.version() - segment.policy_version();
+    Learner::Accept a = learner.Add(segment);
+    if (a == Learner::Accept::kWrongLength) {
+      reject({wire::Rejection::kShape, "segment length differs from time_horizon"});
+    } else if (a == Learner::Accept::kAccepted) {
+      metrics.lag.Observe(static_cast<double>(lag));
+    }
+    AdvanceTo(metrics.stale, static_cast<double>(learner.stale_dropped() - start_stale));
+  };
+  // A replica whose buffer is full takes fresh segments while the others fill theirs, up to
+  // twice its share (Learner::AgreeToUpdate says why); each call waits at most 2 ms.
+  auto take_while_waiting = [&] {
+    if (learner.Full()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      return;
+    }
+    zmq::pollitem_t item = {pull.handle(), 0, ZMQ_POLLIN, 0};
+    zmq::message_t message;
+    if (zmq::poll(&item, 1, std::chrono::milliseconds(2)) > 0 &&
+        Receive(pull, message, zmq::recv_flags::dontwait)) {
+      take(message);
+    }
+  };
+
   // Time spent blocked waiting for a segment: the learner's idle time, per iteration.
   double idle_seconds = 0;
   bool stopped = false;
@@ -454,33 +493,9 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     const double waited = std::chrono::duration<double>(Clock::now() - wait_start).count();
     idle_seconds += waited;
     metrics.idle_seconds.Increment(waited);
-    if (received) {
-      v1::Header header;
-      v1::TrajectorySegment segment;
-      wire::Verdict v = wire::ReadMessage(message.data(), message.size(),
-                                          endpoints.max_message_bytes, &header, &segment);
-      if (v.ok() && header.kind() != v1::KIND_TRAJECTORY) {
-        v = {wire::Rejection::kKind, "expected a trajectory segment"};
-      }
-      if (v.ok() && header.run_id() != config.run_id) {
-        v = {wire::Rejection::kRunId, "segment of run '" + header.run_id() + "'"};
-      }
-      if (v.ok()) v = wire::CheckSegment(segment, config.observation_size, config.action_size);
-      if (!v.ok()) {
-        reject(v);
-      } else {
-        const int64_t lag = learner.version() - segment.policy_version();
-        Learner::Accept a = learner.Add(segment);
-        if (a == Learner::Accept::kWrongLength) {
-          reject({wire::Rejection::kShape, "segment length differs from time_horizon"});
-        } else if (a == Learner::Accept::kAccepted) {
-          metrics.lag.Observe(static_cast<double>(lag));
-        }
-        AdvanceTo(metrics.stale, static_cast<double>(learner.stale_dropped() - start_stale));
-      }
-    }
+    if (received) take(message);
     if (learner.Ready()) {
-      if (!learner.AgreeToUpdate(false)) {  // another replica is stopping
+      if (!learner.AgreeToUpdate(false, take_while_waiting)) {  // another replica is stopping
         stopped = true;
         break;
       }

@@ -64,7 +64,12 @@ namespace {
 // its buffer) block after this, leaving the core to the actors.
 constexpr auto kPollBeforeBlocking = std::chrono::milliseconds(10);
 
-void Run(const c10::intrusive_ptr<c10d::Work>& work, const char* what) {
+// `meanwhile`, when given, runs until the work completes instead of the polling.
+void Run(const c10::intrusive_ptr<c10d::Work>& work, const char* what,
+         const std::function<void()>& meanwhile = {}) {
+  if (meanwhile) {
+    while (!work->isCompleted()) meanwhile();
+  }
   const auto until = std::chrono::steady_clock::now() + kPollBeforeBlocking;
   while (!work->isCompleted() && std::chrono::steady_clock::now() < until) {
     std::this_thread::yield();  // to Gloo's own threads, which may share this core
@@ -84,6 +89,12 @@ void ReplicaGroup::Sum(torch::Tensor& tensor) {
   if (size_ == 1) return;
   std::vector<at::Tensor> tensors = {tensor};
   Run(impl_->group->allreduce(tensors), "sum");
+}
+
+void ReplicaGroup::Sum(torch::Tensor& tensor, const std::function<void()>& meanwhile) {
+  if (size_ == 1) return;
+  std::vector<at::Tensor> tensors = {tensor};
+  Run(impl_->group->allreduce(tensors), "sum", meanwhile);
 }
 
 void ReplicaGroup::Min(torch::Tensor& tensor) {

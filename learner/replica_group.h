@@ -9,6 +9,7 @@
 #include <torch/torch.h>
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -38,6 +39,9 @@ class ReplicaGroup {
   // receives the same bits.
   void Sum(torch::Tensor& tensor);
   void Min(torch::Tensor& tensor);
+  // Sum, with `meanwhile` called over and over until every replica has joined (each call should
+  // return within a few milliseconds): a replica waiting for the others keeps doing useful work.
+  void Sum(torch::Tensor& tensor, const std::function<void()>& meanwhile);
   // Rank `root`'s bytes, on every replica.
   std::string Broadcast(const std::string& bytes, int root = 0);
 

@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <atomic>
 
 #include <cmath>
 #include <cstring>
@@ -621,6 +622,97 @@ TEST(LearnerReplicas, TwoReplicasStayIdenticalAndMatchOneLearnerOnTheUnion) {
   EXPECT_LT(differs, 1e-3 * moved) << "moved " << moved << ", differs " << differs;
   EXPECT_DOUBLE_EQ(normalized_returns[0], 0.5);
   EXPECT_DOUBLE_EQ(normalized_returns[1], 0.5);
+}
+
+// A replica that was dealt more than its share (it joined first and took the queued backlog)
+// takes segments while the other fills its share, and the group then steps as one learner on the
+// union: the larger share weighs more.
+TEST(LearnerReplicas, AReplicaTakesSegmentsWhileWaitingAndTheUnequalSharesWeighByTheirSize) {
+  TrainerConfig c = SmallConfig();
+  c.batch_size = c.buffer_size;  // one minibatch per epoch: each replica's whole buffer
+  c.num_epoch = 3;
+  c.normalize_value = true;
+  c.max_policy_lag = 100;
+  const int share = c.buffer_size / kT / 2;  // segments
+  TrainerConfig union_config = c;            // one learner taking what the two held
+  union_config.buffer_size = union_config.batch_size = (2 * share + 1) * kT;
+  Learner single(union_config, kObs, kAct);
+  const std::string initial = single.SaveToBytes("");
+  const int port = FreePort();
+  constexpr int kUpdates = 2;
+  std::mt19937 rng(11);
+  std::vector<std::vector<v1::TrajectorySegment>> data(kUpdates);  // replica 0's, then 1's
+  for (auto& update : data) {
+    for (int i = 0; i < 2 * share + 1; ++i) update.push_back(RandomSegment(rng, 0));
+  }
+  std::vector<std::string> finals(2), errors(2);
+  std::vector<int64_t> taken_while_waiting(2, 0);
+  std::atomic<int> extra_taken{0};
+  auto replica = [&](int rank) {
+    try {
+      ReplicaGroup group(TestGroup(rank, port));
+      Learner learner(c, kObs, kAct, &group);
+      if (rank == 0) learner.LoadFromBytes(initial, "initial");
+      learner.SyncFromRankZero();
+      for (int u = 0; u < kUpdates; ++u) {
+        const auto& update = data[u];
+        const int first = rank == 0 ? 0 : share + 1;
+        for (int i = first; i < first + share; ++i) learner.Add(update[i]);
+        EXPECT_TRUE(learner.Ready());
+        EXPECT_FALSE(learner.Full());
+        if (rank == 1) {
+          // Joins only once replica 0 has taken its extra segment while waiting.
+          while (extra_taken.load() <= u) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        auto meanwhile = [&] {
+          ++taken_while_waiting[rank];
+          if (rank == 0 && extra_taken.load() == u) {
+            learner.Add(update[share]);
+            extra_taken.store(u + 1);
+          }
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        };
+        EXPECT_TRUE(learner.AgreeToUpdate(false, meanwhile));
+        UpdateStats stats = learner.Update();
+        EXPECT_EQ(stats.samples, (2 * share + 1) * kT);
+      }
+      finals[rank] = learner.SaveToBytes("");
+    } catch (const std::exception& e) {
+      errors[rank] = e.what();
+    }
+  };
+  std::thread zero(replica, 0), one(replica, 1);
+  zero.join();
+  one.join();
+  ASSERT_EQ(errors[0], "");
+  ASSERT_EQ(errors[1], "");
+  EXPECT_GE(taken_while_waiting[0], kUpdates);
+  for (const auto& update : data) {
+    for (const auto& s : update) single.Add(s);
+    ASSERT_TRUE(single.Ready());
+    single.Update();
+  }
+  Learner a(c, kObs, kAct), b(c, kObs, kAct), start(c, kObs, kAct);
+  a.LoadFromBytes(finals[0], "replica 0");
+  b.LoadFromBytes(finals[1], "replica 1");
+  start.LoadFromBytes(initial, "initial");
+  EXPECT_TRUE(SameParameters(*a.policy(), *b.policy()));
+  EXPECT_TRUE(SameParameters(*a.critic(), *b.critic()));
+  EXPECT_EQ(a.samples(), single.samples());
+  for (int j = 0; j < kObs; ++j) {
+    EXPECT_NEAR(a.stats().mean()[j], single.stats().mean()[j], 1e-9);
+    EXPECT_NEAR(a.stats().var()[j], single.stats().var()[j], 1e-9);
+  }
+  auto flat = [](Learner& l) {
+    std::vector<torch::Tensor> all;
+    for (const auto& p : l.policy()->parameters()) all.push_back(p.detach().reshape({-1}));
+    for (const auto& p : l.critic()->parameters()) all.push_back(p.detach().reshape({-1}));
+    return torch::cat(all);
+  };
+  const double moved = (flat(single) - flat(start)).norm().item<double>();
+  const double differs = (flat(a) - flat(single)).norm().item<double>();
+  EXPECT_GT(moved, 1e-3);
+  EXPECT_LT(differs, 1e-3 * moved) << "moved " << moved << ", differs " << differs;
 }
 
 TEST(LearnerReplicas, OneStoppingReplicaStopsThemAll) {
