@@ -85,12 +85,6 @@ void Run(const c10::intrusive_ptr<c10d::Work>& work, const char* what,
 
 }  // namespace
 
-void ReplicaGroup::Sum(torch::Tensor& tensor) {
-  if (size_ == 1) return;
-  std::vector<at::Tensor> tensors = {tensor};
-  Run(impl_->group->allreduce(tensors), "sum");
-}
-
 void ReplicaGroup::Sum(torch::Tensor& tensor, const std::function<void()>& meanwhile) {
   if (size_ == 1) return;
   std::vector<at::Tensor> tensors = {tensor};

@@ -37,11 +37,10 @@ class ReplicaGroup {
 
   // In place over all replicas (contiguous float32, float64 or int64 tensors). Every replica
   // receives the same bits.
-  void Sum(torch::Tensor& tensor);
+  // Sum calls `meanwhile`, when given, over and over until every replica has joined (each call
+  // should return within a few milliseconds): a replica waiting for the others keeps working.
+  void Sum(torch::Tensor& tensor, const std::function<void()>& meanwhile = {});
   void Min(torch::Tensor& tensor);
-  // Sum, with `meanwhile` called over and over until every replica has joined (each call should
-  // return within a few milliseconds): a replica waiting for the others keeps doing useful work.
-  void Sum(torch::Tensor& tensor, const std::function<void()>& meanwhile);
   // Rank `root`'s bytes, on every replica.
   std::string Broadcast(const std::string& bytes, int root = 0);
 

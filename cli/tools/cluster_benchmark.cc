@@ -209,7 +209,7 @@ class Replay {
           }
           if (per_thread > 0) {
             // Asleep until this thread's next segment is due: the replay costs the learners
-            // under test little CPU (about 0.01 core at 7 000 samples/s).
+            // under test little CPU (0.01-0.02 core at 5 000-10 000 samples/s).
             const double due = sent * segment_samples / per_thread;
             if (due > Since(start)) {
               std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(

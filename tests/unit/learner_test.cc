@@ -541,6 +541,41 @@ int FreePort() {
   return ntohs(address.sin_port);
 }
 
+// Two replicas' final states (`finals`) against one learner (`single`) that trained on the union
+// of their data from the same `initial` state.
+void ExpectReplicasSteppedAsOneLearner(const TrainerConfig& c,
+                                       const std::vector<std::string>& finals, Learner& single,
+                                       const std::string& initial, int64_t updates) {
+  Learner a(c, kObs, kAct), b(c, kObs, kAct), start(c, kObs, kAct);
+  a.LoadFromBytes(finals[0], "replica 0");
+  b.LoadFromBytes(finals[1], "replica 1");
+  start.LoadFromBytes(initial, "initial");
+  EXPECT_TRUE(SameParameters(*a.policy(), *b.policy()));
+  EXPECT_TRUE(SameParameters(*a.critic(), *b.critic()));
+  EXPECT_EQ(a.samples(), single.samples());
+  EXPECT_EQ(a.version(), updates);
+  EXPECT_DOUBLE_EQ(a.stats().count(), single.stats().count());
+  for (int j = 0; j < kObs; ++j) {
+    EXPECT_NEAR(a.stats().mean()[j], single.stats().mean()[j], 1e-9);
+    EXPECT_NEAR(a.stats().var()[j], single.stats().var()[j], 1e-9);
+  }
+  EXPECT_NEAR(a.return_stats().mean()[0], single.return_stats().mean()[0], 1e-6);
+  EXPECT_NEAR(a.return_stats().var()[0], single.return_stats().var()[0], 1e-6);
+  // Float rounding differs (summation order, float64 advantage moments), and Adam can turn a
+  // rounding-sized gradient into a full step, so compare the whole weight vector: its distance
+  // from one learner's must be tiny against how far training moved it.
+  auto flat = [](Learner& l) {
+    std::vector<torch::Tensor> all;
+    for (const auto& p : l.policy()->parameters()) all.push_back(p.detach().reshape({-1}));
+    for (const auto& p : l.critic()->parameters()) all.push_back(p.detach().reshape({-1}));
+    return torch::cat(all);
+  };
+  const double moved = (flat(single) - flat(start)).norm().item<double>();
+  const double differs = (flat(a) - flat(single)).norm().item<double>();
+  EXPECT_GT(moved, 1e-3);
+  EXPECT_LT(differs, 1e-3 * moved) << "moved " << moved << ", differs " << differs;
+}
+
 TEST(LearnerReplicas, TwoReplicasStayIdenticalAndMatchOneLearnerOnTheUnion) {
   TrainerConfig c = SmallConfig();
   c.batch_size = c.buffer_size;  // one minibatch per epoch
@@ -591,35 +626,7 @@ TEST(LearnerReplicas, TwoReplicasStayIdenticalAndMatchOneLearnerOnTheUnion) {
     single.Update();
   }
 
-  Learner a(c, kObs, kAct), b(c, kObs, kAct);
-  a.LoadFromBytes(finals[0], "replica 0");
-  b.LoadFromBytes(finals[1], "replica 1");
-  EXPECT_TRUE(SameParameters(*a.policy(), *b.policy()));
-  EXPECT_TRUE(SameParameters(*a.critic(), *b.critic()));
-  EXPECT_EQ(a.samples(), single.samples());
-  EXPECT_EQ(a.version(), kUpdates);
-  EXPECT_DOUBLE_EQ(a.stats().count(), single.stats().count());
-  for (int j = 0; j < kObs; ++j) {
-    EXPECT_NEAR(a.stats().mean()[j], single.stats().mean()[j], 1e-9);
-    EXPECT_NEAR(a.stats().var()[j], single.stats().var()[j], 1e-9);
-  }
-  EXPECT_NEAR(a.return_stats().mean()[0], single.return_stats().mean()[0], 1e-6);
-  EXPECT_NEAR(a.return_stats().var()[0], single.return_stats().var()[0], 1e-6);
-  // Float rounding differs (summation order, float64 advantage moments), and Adam can turn a
-  // rounding-sized gradient into a full step, so compare the whole weight vector: its distance
-  // from one learner's must be tiny against how far training moved it.
-  Learner start(c, kObs, kAct);
-  start.LoadFromBytes(initial, "initial");
-  auto flat = [](Learner& l) {
-    std::vector<torch::Tensor> all;
-    for (const auto& p : l.policy()->parameters()) all.push_back(p.detach().reshape({-1}));
-    for (const auto& p : l.critic()->parameters()) all.push_back(p.detach().reshape({-1}));
-    return torch::cat(all);
-  };
-  const double moved = (flat(single) - flat(start)).norm().item<double>();
-  const double differs = (flat(a) - flat(single)).norm().item<double>();
-  EXPECT_GT(moved, 1e-3);
-  EXPECT_LT(differs, 1e-3 * moved) << "moved " << moved << ", differs " << differs;
+  ExpectReplicasSteppedAsOneLearner(c, finals, single, initial, kUpdates);
   EXPECT_DOUBLE_EQ(normalized_returns[0], 0.5);
   EXPECT_DOUBLE_EQ(normalized_returns[1], 0.5);
 }
@@ -692,27 +699,7 @@ TEST(LearnerReplicas, AReplicaTakesSegmentsWhileWaitingAndTheUnequalSharesWeighB
     ASSERT_TRUE(single.Ready());
     single.Update();
   }
-  Learner a(c, kObs, kAct), b(c, kObs, kAct), start(c, kObs, kAct);
-  a.LoadFromBytes(finals[0], "replica 0");
-  b.LoadFromBytes(finals[1], "replica 1");
-  start.LoadFromBytes(initial, "initial");
-  EXPECT_TRUE(SameParameters(*a.policy(), *b.policy()));
-  EXPECT_TRUE(SameParameters(*a.critic(), *b.critic()));
-  EXPECT_EQ(a.samples(), single.samples());
-  for (int j = 0; j < kObs; ++j) {
-    EXPECT_NEAR(a.stats().mean()[j], single.stats().mean()[j], 1e-9);
-    EXPECT_NEAR(a.stats().var()[j], single.stats().var()[j], 1e-9);
-  }
-  auto flat = [](Learner& l) {
-    std::vector<torch::Tensor> all;
-    for (const auto& p : l.policy()->parameters()) all.push_back(p.detach().reshape({-1}));
-    for (const auto& p : l.critic()->parameters()) all.push_back(p.detach().reshape({-1}));
-    return torch::cat(all);
-  };
-  const double moved = (flat(single) - flat(start)).norm().item<double>();
-  const double differs = (flat(a) - flat(single)).norm().item<double>();
-  EXPECT_GT(moved, 1e-3);
-  EXPECT_LT(differs, 1e-3 * moved) << "moved " << moved << ", differs " << differs;
+  ExpectReplicasSteppedAsOneLearner(c, finals, single, initial, kUpdates);
 }
 
 TEST(LearnerReplicas, OneStoppingReplicaStopsThemAll) {
