@@ -572,7 +572,11 @@ int main(int argc, char** argv) {
       if (r > 1) groups.emplace_back(1, r);
     }
     result["learner"] = nlohmann::json::array();
-    for (const auto& [threads, replicas] : groups) {
+    for (const auto& group : groups) {
+      // Plain locals, not structured bindings: a lambda below captures them (C++17 forbids
+      // capturing a binding, and clang says so).
+      const int threads = group.first;
+      const int replicas = group.second;
       nlohmann::json flood =
           BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders, pin);
       if (flood.contains("error")) {
