@@ -463,15 +463,22 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     AdvanceTo(metrics.stale, static_cast<double>(learner.stale_dropped() - start_stale));
   };
   // A replica whose buffer is full takes fresh segments while the others fill theirs, up to
-  // twice its share (Learner::AgreeToUpdate says why); each call waits at most 2 ms.
+  // twice its share (Learner::AgreeToUpdate says why), but only once they are late. Replicas
+  // that all hold a backlog reach the agreement 1-20 ms apart, and without the wait the first
+  // one took its backlog in that time, up to twice its share (8 192 -> 16 384 in 11 ms,
+  // ragdoll-bench-cluster --pin). Every gradient step then waited for it: updates took 3-5 s
+  // instead of 2.2, the backlog grew, and the group trained less the more it was offered.
+  // Each call waits at most 1 ms.
+  constexpr auto kLateAfter = std::chrono::milliseconds(50);
+  Clock::time_point waiting_since;
   auto take_while_waiting = [&] {
-    if (learner.Full()) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (learner.Full() || Clock::now() - waiting_since < kLateAfter) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
       return;
     }
     zmq::pollitem_t item = {pull.handle(), 0, ZMQ_POLLIN, 0};
     zmq::message_t message;
-    if (zmq::poll(&item, 1, std::chrono::milliseconds(2)) > 0 &&
+    if (zmq::poll(&item, 1, std::chrono::milliseconds(1)) > 0 &&
         Receive(pull, message, zmq::recv_flags::dontwait)) {
       take(message);
     }
@@ -495,6 +502,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     metrics.idle_seconds.Increment(waited);
     if (received) take(message);
     if (learner.Ready()) {
+      waiting_since = Clock::now();
       if (!learner.AgreeToUpdate(false, take_while_waiting)) {  // another replica is stopping
         stopped = true;
         break;
