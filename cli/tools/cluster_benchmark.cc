@@ -3,6 +3,7 @@
 // trajectory segments recorded from the real environment (valid messages, no physics), stamped
 // with the newest policy version they have heard of.
 //   ragdoll-bench-cluster CONFIG [--seconds S] [--threads 1,2] [--replicas 1,2] [--subscribers 100]
+//                         [--pin] [--repeats N]
 // It prints, and with --json writes:
 //   broker:    forwarding ceiling with a sink for a learner (segments/s, samples/s, MB/s, the
 //              broker's CPU share, and samples/s per broker core);
@@ -10,6 +11,8 @@
 //              and the stale-drop fraction then; and its absorption: the highest offered rate
 //              at which under 1 % of segments go stale (searched around the flooded rate),
 //              with the CPU the learners, the broker and the synthetic actors used there;
+//              with --repeats, medians, and each replica group's median ratio to one replica
+//              measured in the same round;
 //   snapshots: time for one snapshot to reach every one of --subscribers actors.
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -21,11 +24,13 @@
 #include <yaml-cpp/yaml.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -496,6 +501,58 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
           {"max_s", *std::max_element(times.begin(), times.end())}};
 }
 
+// Stale-free absorption: the highest offered rate at which under 1 % of the segments go stale.
+// Searched from 0.9 of the flooded rate, up by 10 % while it passes (a flood slows the learners
+// it floods: they parse segments only to drop them, beside a broker forwarding twice what they
+// train on, so they may absorb more than they train flooded), down by 15 % while it fails, then
+// once halfway between the last pass and the first failure. The figure is the best absorption
+// among the runs that passed.
+nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
+                          const Recording& rec, const Ports& ports, double seconds, int threads,
+                          int replicas, int senders, bool pin, const nlohmann::json& flood) {
+  const double flooded = flood["trained_samples_per_s"].get<double>();
+  auto passes = [](const nlohmann::json& run) {
+    return !run.contains("error") && run.value("stale_fraction", 1.0) < 0.01;
+  };
+  auto offer = [&](double rate) {
+    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
+                        pin);
+  };
+  // A run's absorption is what was both offered and trained: a run may also train a
+  // backlog queued before its window, and trains at most its capacity when offered more.
+  auto absorbed_by = [](const nlohmann::json& run) {
+    return std::min(run["offered_samples_per_s"].get<double>(),
+                    run["trained_samples_per_s"].get<double>());
+  };
+  nlohmann::json paced, tried = nlohmann::json::array();
+  double passed = 0, failed = 0, rate = 0.9 * flooded, absorbed = 0;
+  auto try_rate = [&](double r) {
+    nlohmann::json run = offer(r);
+    tried.push_back(run);
+    const bool ok = passes(run);
+    if (ok && absorbed_by(run) > absorbed) {
+      absorbed = absorbed_by(run);
+      paced = run;
+    }
+    return ok;
+  };
+  for (int i = 0; i < 6 && (passed == 0 || failed == 0); ++i) {
+    if (try_rate(rate)) {
+      passed = rate;
+      rate *= 1.1;
+    } else {
+      failed = rate;
+      rate *= 0.85;
+    }
+  }
+  if (passed > 0 && failed > 0) try_rate(0.5 * (passed + failed));
+  if (paced.is_null()) paced = tried.back();
+  paced["fraction_of_flooded"] =
+      paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>() / flooded;
+  paced["absorbed_samples_per_s"] = absorbed;
+  return {{"flooded", flood}, {"paced", paced}, {"tried", tried}};
+}
+
 std::vector<int> Numbers(const std::string& list) {
   std::vector<int> out;
   std::stringstream in(list);
@@ -510,7 +567,7 @@ int main(int argc, char** argv) {
   std::string config, json_out, threads_list = "1,2", replicas_list = "1,2";
   std::string ragdoll = (fs::canonical("/proc/self/exe").parent_path() / "ragdoll").string();
   double seconds = 20;
-  int subscribers = 100, senders = 2, port_base = 27000;
+  int subscribers = 100, senders = 2, port_base = 27000, repeats = 1;
   bool pin = false, curve = false;
   app.add_option("config", config, "experiment YAML")->required();
   app.add_option("--ragdoll", ragdoll, "the ragdoll binary")->capture_default_str();
@@ -521,6 +578,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--subscribers", subscribers, "actors subscribed to snapshots")
       ->capture_default_str();
+  app.add_option("--repeats", repeats,
+                 "run the learner groups in turn this many times; medians, and each replica "
+                 "group's median ratio to one replica in the same round")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 20));
   app.add_option("--senders", senders, "synthetic actor threads")->capture_default_str();
   app.add_option("--port-base", port_base, "ports PORT_BASE..PORT_BASE+60")->capture_default_str();
   app.add_option("--json", json_out, "also write the figures here");
@@ -571,78 +633,68 @@ int main(int argc, char** argv) {
     for (int r : Numbers(replicas_list)) {
       if (r > 1) groups.emplace_back(1, r);
     }
+    // With --repeats N the groups run in turn N times (1, 2, 1, 2, ...), so that each replica
+    // group's ratio to one replica compares runs minutes apart, not a whole search apart: the
+    // machines these figures come from drift by 15 % within an hour.
     result["learner"] = nlohmann::json::array();
-    for (const auto& group : groups) {
-      // Plain locals, not structured bindings: a lambda below captures them (C++17 forbids
-      // capturing a binding, and clang says so).
-      const int threads = group.first;
-      const int replicas = group.second;
-      nlohmann::json flood =
-          BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders, pin);
-      if (flood.contains("error")) {
-        std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
-                    flood["error"].get<std::string>().c_str());
-        result["learner"].push_back(flood);
-        continue;
-      }
-      // Stale-free absorption: the highest offered rate at which under 1 % of the segments go
-      // stale. Searched from 0.9 of the flooded rate, up by 10 % while it passes (a flood slows
-      // the learners it floods: they parse segments only to drop them, beside a broker
-      // forwarding twice what they train on, so they may absorb more than they train flooded),
-      // down by 15 % while it fails, then once halfway between the last pass and the first
-      // failure. The figure is the best absorption among the runs that passed.
-      const double flooded = flood["trained_samples_per_s"].get<double>();
-      auto passes = [](const nlohmann::json& run) {
-        return !run.contains("error") && run.value("stale_fraction", 1.0) < 0.01;
-      };
-      auto offer = [&](double rate) {
-        return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
-                            pin);
-      };
-      // A run's absorption is what was both offered and trained: a run may also train a
-      // backlog queued before its window, and trains at most its capacity when offered more.
-      auto absorbed_by = [](const nlohmann::json& run) {
-        return std::min(run["offered_samples_per_s"].get<double>(),
-                        run["trained_samples_per_s"].get<double>());
-      };
-      nlohmann::json paced, tried = nlohmann::json::array();
-      double passed = 0, failed = 0, rate = 0.9 * flooded, absorbed = 0;
-      auto try_rate = [&](double r) {
-        nlohmann::json run = offer(r);
-        tried.push_back(run);
-        const bool ok = passes(run);
-        if (ok && absorbed_by(run) > absorbed) {
-          absorbed = absorbed_by(run);
-          paced = run;
+    std::map<std::pair<int, int>, std::vector<double>> absorbed_by_group;
+    std::map<int, std::vector<double>> ratios;  // by replica count: to one replica, same round
+    for (int round = 0; round < repeats; ++round) {
+      double one_replica = 0;
+      for (const auto& group : groups) {
+        const int threads = group.first;
+        const int replicas = group.second;
+        nlohmann::json flood =
+            BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders, pin);
+        if (flood.contains("error")) {
+          std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
+                      flood["error"].get<std::string>().c_str());
+          result["learner"].push_back(flood);
+          continue;
         }
-        return ok;
-      };
-      for (int i = 0; i < 6 && (passed == 0 || failed == 0); ++i) {
-        if (try_rate(rate)) {
-          passed = rate;
-          rate *= 1.1;
-        } else {
-          failed = rate;
-          rate *= 0.85;
+        nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
+                                        senders, pin, flood);
+        run["round"] = round;
+        const nlohmann::json& paced = run["paced"];
+        const double flooded = flood["trained_samples_per_s"].get<double>();
+        const double absorbed = paced["absorbed_samples_per_s"].get<double>();
+        absorbed_by_group[group].push_back(absorbed);
+        if (threads == 1 && replicas == 1) one_replica = absorbed;
+        if (replicas > 1 && one_replica > 0) ratios[replicas].push_back(absorbed / one_replica);
+        std::printf(
+            "learner %d thread(s) x %d replica(s)  flooded: %7.0f samples/s trained, stale %.3f, "
+            "CPU %.2f cores | absorbs %7.0f samples/s stale-free (offered %.0f: trained %.0f, "
+            "stale %.4f, CPU %.2f cores; broker %.3f, synthetic actors %.3f)",
+            threads, replicas, flooded, flood["stale_fraction"].get<double>(),
+            flood["learner_cpu_cores"].get<double>(), absorbed,
+            paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>(),
+            paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0),
+            paced.value("learner_cpu_cores", 0.0), paced.value("broker_cpu_cores", 0.0),
+            paced.value("synthetic_actors_cpu_cores", 0.0));
+        if (replicas > 1 && one_replica > 0) {
+          std::printf(" = %.2f x one replica", absorbed / one_replica);
         }
+        std::printf("\n");
+        std::fflush(stdout);
+        result["learner"].push_back(run);
       }
-      if (passed > 0 && failed > 0) try_rate(0.5 * (passed + failed));
-      if (paced.is_null()) paced = tried.back();
-      paced["fraction_of_flooded"] =
-          paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>() / flooded;
-      paced["absorbed_samples_per_s"] = absorbed;
-      std::printf(
-          "learner %d thread(s) x %d replica(s)  flooded: %7.0f samples/s trained, stale %.3f, "
-          "CPU %.2f cores | absorbs %7.0f samples/s stale-free (offered %.0f: trained %.0f, "
-          "stale %.4f, CPU %.2f cores; broker %.3f, synthetic actors %.3f)\n",
-          threads, replicas, flooded, flood["stale_fraction"].get<double>(),
-          flood["learner_cpu_cores"].get<double>(), absorbed,
-          paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>(),
-          paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0),
-          paced.value("learner_cpu_cores", 0.0), paced.value("broker_cpu_cores", 0.0),
-          paced.value("synthetic_actors_cpu_cores", 0.0));
-      std::fflush(stdout);
-      result["learner"].push_back({{"flooded", flood}, {"paced", paced}, {"tried", tried}});
+    }
+    if (repeats > 1) {
+      result["median_absorbed_samples_per_s"] = nlohmann::json::array();
+      for (auto& [group, values] : absorbed_by_group) {
+        std::printf("learner %d thread(s) x %d replica(s)  absorbs %7.0f samples/s (median of %zu)",
+                    group.first, group.second, Median(values), values.size());
+        result["median_absorbed_samples_per_s"].push_back(
+            {{"threads", group.first}, {"replicas", group.second}, {"median", Median(values)}});
+        if (ratios.count(group.second) > 0 && group.second > 1) {
+          const std::vector<double>& r = ratios[group.second];
+          std::printf(", %.2f x one replica (median of %zu rounds' ratios, %.2f-%.2f)", Median(r),
+                      r.size(), *std::min_element(r.begin(), r.end()),
+                      *std::max_element(r.begin(), r.end()));
+          result["median_ratio_to_one_replica"][std::to_string(group.second)] = Median(r);
+        }
+        std::printf("\n");
+      }
     }
 
     nlohmann::json snapshots = BenchSnapshots(ragdoll, config, rec, ports, subscribers, 10);
