@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <sstream>
+#include <utility>
 
 #include "common/config_section.h"
 #include "learner/checkpoint_file.h"
@@ -54,7 +55,7 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
       params, torch::optim::AdamOptions(config.learning_rate).eps(1e-5));
 }
 
-Learner::Accept Learner::Add(const v1::TrajectorySegment& segment) {
+Learner::Accept Learner::Add(v1::TrajectorySegment segment) {
   if (segment.actions().shape(0) != config_.time_horizon) return Accept::kWrongLength;
   if (segment.policy_version() < version_ - config_.max_policy_lag ||
       segment.policy_version() > version_ + kMaxVersionAhead) {
@@ -64,7 +65,7 @@ Learner::Accept Learner::Add(const v1::TrajectorySegment& segment) {
   newest_seen_ = std::max(newest_seen_, segment.policy_version());
   for (const auto& e : segment.episodes()) episodes_.Add(e);
   buffered_samples_ += config_.time_horizon;
-  buffer_.push_back(segment);
+  buffer_.push_back(std::move(segment));
   return Accept::kAccepted;
 }
 

@@ -52,8 +52,9 @@ class Learner {
           ReplicaGroup* group = nullptr);
 
   enum class Accept { kAccepted, kStale, kWrongLength };
-  // Adds a segment that passed wire::CheckSegment for this learner's sizes.
-  Accept Add(const v1::TrajectorySegment& segment);
+  // Adds a segment that passed wire::CheckSegment for this learner's sizes (moved in when the
+  // caller is done with it: a walk segment is 67 kB).
+  Accept Add(v1::TrajectorySegment segment);
   bool Ready() const { return buffered_samples_ >= local_buffer_size_; }
   // Replicas only: a replica may go on taking segments while it waits for the others (below),
   // up to twice its share; past that it should leave them queued.

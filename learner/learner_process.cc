@@ -13,6 +13,7 @@
 #include <fstream>
 #include <optional>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "common/config_section.h"
@@ -454,7 +455,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     if (v.ok()) v = wire::CheckSegment(segment, config.observation_size, config.action_size);
     if (!v.ok()) return reject(v);
     const int64_t lag = learner.version() - segment.policy_version();
-    Learner::Accept a = learner.Add(segment);
+    Learner::Accept a = learner.Add(std::move(segment));
     if (a == Learner::Accept::kWrongLength) {
       reject({wire::Rejection::kShape, "segment length differs from time_horizon"});
     } else if (a == Learner::Accept::kAccepted) {
