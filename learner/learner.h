@@ -62,9 +62,10 @@ class Learner {
   // Replicas only: every replica calls this when Ready() or when it is asked to stop; true when
   // none of them is stopping (else none updates). Alone: !stopping. Until the last replica
   // joins, `meanwhile` runs over and over (each call returning within milliseconds): the
-  // learner process takes fresh segments there, so that a replica dealt more than the others
-  // (one that joined first gets the queued backlog) trains on it now instead of keeping it
-  // queued until it goes stale. The update then weighs each replica by the samples it holds.
+  // learner process takes fresh segments there once the others are late, so that a replica dealt
+  // more than the others (one that joined first gets the queued backlog) trains on it now instead
+  // of keeping it queued until it goes stale. The update then weighs each replica by the samples it
+  // holds.
   bool AgreeToUpdate(bool stopping, const std::function<void()>& meanwhile = {});
   // Runs PPO on the buffer, empties it, bumps the policy version. With replicas, every replica
   // calls it together (after AgreeToUpdate), and the episode statistics become the group's.
