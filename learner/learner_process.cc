@@ -471,8 +471,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   // instead of 2.2, the backlog grew, and the group trained less the more it was offered.
   // Each call waits at most 1 ms.
   constexpr auto kLateAfter = std::chrono::milliseconds(50);
-  Clock::time_point waiting_since;
-  auto take_while_waiting = [&] {
+  auto take_while_waiting = [&](Clock::time_point waiting_since) {
     if (learner.Full() || Clock::now() - waiting_since < kLateAfter) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
       return;
@@ -503,8 +502,9 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     metrics.idle_seconds.Increment(waited);
     if (received) take(message);
     if (learner.Ready()) {
-      waiting_since = Clock::now();
-      if (!learner.AgreeToUpdate(false, take_while_waiting)) {  // another replica is stopping
+      const auto ready_at = Clock::now();
+      // False: another replica is stopping.
+      if (!learner.AgreeToUpdate(false, [&] { take_while_waiting(ready_at); })) {
         stopped = true;
         break;
       }

@@ -660,7 +660,8 @@ int main(int argc, char** argv) {
         const double absorbed = paced["absorbed_samples_per_s"].get<double>();
         absorbed_by_group[group].push_back(absorbed);
         if (threads == 1 && replicas == 1) one_replica = absorbed;
-        if (replicas > 1 && one_replica > 0) ratios[replicas].push_back(absorbed / one_replica);
+        const double ratio = replicas > 1 && one_replica > 0 ? absorbed / one_replica : 0;
+        if (ratio > 0) ratios[replicas].push_back(ratio);
         std::printf(
             "learner %d thread(s) x %d replica(s)  flooded: %7.0f samples/s trained, stale %.3f, "
             "CPU %.2f cores | absorbs %7.0f samples/s stale-free (offered %.0f: trained %.0f, "
@@ -671,9 +672,7 @@ int main(int argc, char** argv) {
             paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0),
             paced.value("learner_cpu_cores", 0.0), paced.value("broker_cpu_cores", 0.0),
             paced.value("synthetic_actors_cpu_cores", 0.0));
-        if (replicas > 1 && one_replica > 0) {
-          std::printf(" = %.2f x one replica", absorbed / one_replica);
-        }
+        if (ratio > 0) std::printf(" = %.2f x one replica", ratio);
         std::printf("\n");
         std::fflush(stdout);
         result["learner"].push_back(run);
