@@ -9,8 +9,11 @@
 //              broker's CPU share, and samples/s per broker core);
 //   learner:   per (threads, replicas), the samples/s trained when offered more than it takes
 //              and the stale-drop fraction then; and its absorption: the highest offered rate
-//              at which under 1 % of segments go stale (searched around the flooded rate),
-//              with the CPU the learners, the broker and the synthetic actors used there;
+//              that it keeps pace with (trains 95 % of it) with under 1 % of segments going
+//              stale (searched up and down from the flooded rate, or for replicas from 85 % of
+//              linear scaling of one replica in the same round), with the CPU the learners, the
+//              broker and the synthetic actors used there, the median update's seconds and the
+//              learners' idle fraction;
 //              with --repeats, medians, and each replica group's median ratio to one replica
 //              measured in the same round;
 //   snapshots: time for one snapshot to reach every one of --subscribers actors.
@@ -27,7 +30,9 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -361,6 +366,40 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 
 // A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
 // (0: more than it can take). Trained samples/s and the stale-drop fraction.
+// The last `count` values of each named column of a CSV file with a header line (fewer when the
+// file holds fewer rows; none when it cannot be read).
+std::vector<std::vector<double>> LastCsvColumns(const fs::path& path,
+                                                const std::vector<std::string>& names,
+                                                size_t count) {
+  std::vector<std::vector<double>> columns(names.size());
+  std::ifstream in(path);
+  std::string line;
+  if (!std::getline(in, line)) return columns;
+  auto split = [](const std::string& text) {
+    std::vector<std::string> cells;
+    std::stringstream cells_in(text);
+    for (std::string cell; std::getline(cells_in, cell, ',');) cells.push_back(cell);
+    return cells;
+  };
+  const std::vector<std::string> header = split(line);
+  std::vector<size_t> index;
+  for (const std::string& name : names) {
+    const auto at = std::find(header.begin(), header.end(), name);
+    if (at == header.end()) return columns;
+    index.push_back(static_cast<size_t>(at - header.begin()));
+  }
+  std::vector<std::string> lines;
+  while (std::getline(in, line)) lines.push_back(line);
+  for (size_t r = lines.size() - std::min(count, lines.size()); r < lines.size(); ++r) {
+    const std::vector<std::string> cells = split(lines[r]);
+    for (size_t c = 0; c < index.size(); ++c) {
+      if (index[c] < cells.size())
+        columns[c].push_back(std::strtod(cells[index[c]].c_str(), nullptr));
+    }
+  }
+  return columns;
+}
+
 nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
                             int replicas, double rate, int senders, bool pin) {
@@ -445,6 +484,16 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
   out["learner_cpu_cores"] = cpu / wall;
   out["broker_cpu_cores"] = (broker.CpuSeconds() - broker_cpu0) / wall;
   out["synthetic_actors_cpu_cores"] = (OwnCpuSeconds() - own_cpu0) / wall;
+  // Where the window's time went, from replica 0's metrics.csv: the median update's seconds
+  // and the median fraction of an iteration spent waiting for segments, over the window's updates.
+  const auto updates = static_cast<size_t>(std::lround(trained_samples / buffer));
+  const std::vector<std::vector<double>> rows =
+      LastCsvColumns(dir / "run" / "metrics.csv", {"update_s", "idle_fraction"}, updates);
+  if (!rows[0].empty()) {
+    out["updates"] = rows[0].size();
+    out["median_update_s"] = Median(rows[0]);
+    out["median_idle_fraction"] = Median(rows[1]);
+  }
   fs::remove_all(dir);
   return out;
 }
@@ -509,10 +558,16 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 // among the runs that passed.
 nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
-                          int replicas, int senders, bool pin, const nlohmann::json& flood) {
+                          int replicas, int senders, bool pin, const nlohmann::json& flood,
+                          double start_hint) {
   const double flooded = flood["trained_samples_per_s"].get<double>();
+  // A run passes when under 1 % of its segments went stale and the group kept pace: it trained
+  // at least 95 % of what it was offered. A group that trains less has a growing queue, whose
+  // segments go stale later than a window of 15-20 s shows.
   auto passes = [](const nlohmann::json& run) {
-    return !run.contains("error") && run.value("stale_fraction", 1.0) < 0.01;
+    return !run.contains("error") && run.value("stale_fraction", 1.0) < 0.01 &&
+           run.value("trained_samples_per_s", 0.0) >=
+               0.95 * run["offered_samples_per_s"].get<double>();
   };
   auto offer = [&](double rate) {
     return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
@@ -525,7 +580,7 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                     run["trained_samples_per_s"].get<double>());
   };
   nlohmann::json paced, tried = nlohmann::json::array();
-  double passed = 0, failed = 0, rate = 0.9 * flooded, absorbed = 0;
+  double absorbed = 0;
   auto try_rate = [&](double r) {
     nlohmann::json run = offer(r);
     tried.push_back(run);
@@ -536,7 +591,12 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
     }
     return ok;
   };
-  for (int i = 0; i < 6 && (passed == 0 || failed == 0); ++i) {
+  // From 90 % of the flooded rate, or of `start_hint` when higher (a group of replicas floods
+  // far below what it absorbs: the broker's pushing takes the replicas' cores), up by 10 % or
+  // down by 15 % until one rate passes and another fails (at most 8 runs), then the gap
+  // between them halved twice.
+  double passed = 0, failed = 0, rate = 0.9 * std::max(flooded, start_hint);
+  for (int i = 0; i < 8 && (passed == 0 || failed == 0); ++i) {
     if (try_rate(rate)) {
       passed = rate;
       rate *= 1.1;
@@ -545,7 +605,10 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
       rate *= 0.85;
     }
   }
-  if (passed > 0 && failed > 0) try_rate(0.5 * (passed + failed));
+  for (int i = 0; i < 2 && passed > 0 && failed > 0; ++i) {
+    const double middle = 0.5 * (passed + failed);
+    (try_rate(middle) ? passed : failed) = middle;
+  }
   if (paced.is_null()) paced = tried.back();
   paced["fraction_of_flooded"] =
       paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>() / flooded;
@@ -652,8 +715,10 @@ int main(int argc, char** argv) {
           result["learner"].push_back(flood);
           continue;
         }
+        // A replica group's search starts near linear scaling of this round's one replica.
+        const double hint = replicas > 1 ? 0.85 * replicas * one_replica : 0;
         nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                        senders, pin, flood);
+                                        senders, pin, flood, hint);
         run["round"] = round;
         const nlohmann::json& paced = run["paced"];
         const double flooded = flood["trained_samples_per_s"].get<double>();
@@ -665,13 +730,15 @@ int main(int argc, char** argv) {
         std::printf(
             "learner %d thread(s) x %d replica(s)  flooded: %7.0f samples/s trained, stale %.3f, "
             "CPU %.2f cores | absorbs %7.0f samples/s stale-free (offered %.0f: trained %.0f, "
-            "stale %.4f, CPU %.2f cores; broker %.3f, synthetic actors %.3f)",
+            "stale %.4f, CPU %.2f cores; broker %.3f, synthetic actors %.3f; update %.2f s, "
+            "idle %.0f %%)",
             threads, replicas, flooded, flood["stale_fraction"].get<double>(),
             flood["learner_cpu_cores"].get<double>(), absorbed,
             paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>(),
             paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0),
             paced.value("learner_cpu_cores", 0.0), paced.value("broker_cpu_cores", 0.0),
-            paced.value("synthetic_actors_cpu_cores", 0.0));
+            paced.value("synthetic_actors_cpu_cores", 0.0), paced.value("median_update_s", 0.0),
+            100 * paced.value("median_idle_fraction", 0.0));
         if (ratio > 0) std::printf(" = %.2f x one replica", ratio);
         std::printf("\n");
         std::fflush(stdout);
