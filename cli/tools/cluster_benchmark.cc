@@ -32,7 +32,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -45,6 +44,7 @@
 
 #include "actor/rollout.h"
 #include "cli/experiment.h"
+#include "cli/report.h"
 #include "common/endpoints.h"
 #include "common/median.h"
 #include "common/wire.h"
@@ -366,40 +366,6 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 
 // A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
 // (0: more than it can take). Trained samples/s and the stale-drop fraction.
-// The last `count` values of each named column of a CSV file with a header line (fewer when the
-// file holds fewer rows; none when it cannot be read).
-std::vector<std::vector<double>> LastCsvColumns(const fs::path& path,
-                                                const std::vector<std::string>& names,
-                                                size_t count) {
-  std::vector<std::vector<double>> columns(names.size());
-  std::ifstream in(path);
-  std::string line;
-  if (!std::getline(in, line)) return columns;
-  auto split = [](const std::string& text) {
-    std::vector<std::string> cells;
-    std::stringstream cells_in(text);
-    for (std::string cell; std::getline(cells_in, cell, ',');) cells.push_back(cell);
-    return cells;
-  };
-  const std::vector<std::string> header = split(line);
-  std::vector<size_t> index;
-  for (const std::string& name : names) {
-    const auto at = std::find(header.begin(), header.end(), name);
-    if (at == header.end()) return columns;
-    index.push_back(static_cast<size_t>(at - header.begin()));
-  }
-  std::vector<std::string> lines;
-  while (std::getline(in, line)) lines.push_back(line);
-  for (size_t r = lines.size() - std::min(count, lines.size()); r < lines.size(); ++r) {
-    const std::vector<std::string> cells = split(lines[r]);
-    for (size_t c = 0; c < index.size(); ++c) {
-      if (index[c] < cells.size())
-        columns[c].push_back(std::strtod(cells[index[c]].c_str(), nullptr));
-    }
-  }
-  return columns;
-}
-
 nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
                             int replicas, double rate, int senders, bool pin) {
@@ -484,15 +450,24 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
   out["learner_cpu_cores"] = cpu / wall;
   out["broker_cpu_cores"] = (broker.CpuSeconds() - broker_cpu0) / wall;
   out["synthetic_actors_cpu_cores"] = (OwnCpuSeconds() - own_cpu0) / wall;
-  // Where the window's time went, from replica 0's metrics.csv: the median update's seconds
-  // and the median fraction of an iteration spent waiting for segments, over the window's updates.
-  const auto updates = static_cast<size_t>(std::lround(trained_samples / buffer));
-  const std::vector<std::vector<double>> rows =
-      LastCsvColumns(dir / "run" / "metrics.csv", {"update_s", "idle_fraction"}, updates);
-  if (!rows[0].empty()) {
-    out["updates"] = rows[0].size();
-    out["median_update_s"] = Median(rows[0]);
-    out["median_idle_fraction"] = Median(rows[1]);
+  // Where the window's time went, from replica 0's metrics.csv (its last rows are the window's
+  // updates): the median update's seconds and the median fraction of an iteration rank 0 spent
+  // waiting for segments.
+  try {
+    std::stringstream text;
+    text << std::ifstream(dir / "run" / "metrics.csv").rdbuf();
+    const cli::MetricsTable table = cli::ParseMetricsCsv(text.str(), "metrics.csv");
+    const std::vector<double>* update_s = table.Column("update_s");
+    const std::vector<double>* idle = table.Column("idle_fraction");
+    const auto updates =
+        std::min(table.rows, static_cast<size_t>(std::lround(trained_samples / buffer)));
+    if (update_s != nullptr && idle != nullptr && updates > 0) {
+      out["updates"] = updates;
+      out["median_update_s"] = Median({update_s->end() - updates, update_s->end()});
+      out["median_idle_fraction"] = Median({idle->end() - updates, idle->end()});
+    }
+  } catch (const std::exception& error) {
+    out["metrics_csv_error"] = error.what();
   }
   fs::remove_all(dir);
   return out;
