@@ -125,7 +125,7 @@ formats=(fbx glb dae)
 # FBX of Boxing_Toes and of DeepMimic's walk, whose first frames bend the spine and neck (chest
 # and hips 11-12 degrees off, the walk's neck 6; an open defect, docs/motion-import.md "Known
 # problems"). COLLADA is written from the captures' first 480 frames (4-5 s): Blender's COLLADA
-# exporter takes minutes over a whole capture (110 s for 01_01's 2 752 frames, over 3 minutes
+# exporter takes minutes over a whole capture (132 s for 01_01's 2 752 frames, over 3 minutes
 # for Boxing_Toes' 3 069), and the reader meets the same skeleton and file structure in a prefix.
 # head_bvh BVH N: the file with its first N frames only.
 head_bvh() {
