@@ -10,12 +10,11 @@
 //   learner:   per (threads, replicas), the samples/s trained when offered more than it takes
 //              and the stale-drop fraction then; and its absorption: the highest offered rate
 //              that it keeps pace with (trains 95 % of it) with under 1 % of segments going
-//              stale (searched up and down from the flooded rate, or for replicas from 85 % of
-//              linear scaling of one replica in the same round), with the CPU the learners, the
-//              broker and the synthetic actors used there, the median update's seconds and the
-//              learners' idle fraction;
-//              with --repeats, medians, and each replica group's median ratio to one replica
-//              measured in the same round;
+//              stale (searched up and down from 90 % of the flooded rate, or for replicas from
+//              77 % of linear scaling of one replica in the same round when higher), with the CPU
+//              the learners, the broker and the synthetic actors used there, the median update's
+//              seconds and the learners' idle fraction; with --repeats, medians, and each replica
+//              group's median ratio to one replica measured in the same round;
 //   snapshots: time for one snapshot to reach every one of --subscribers actors.
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -534,7 +533,7 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
                           int replicas, int senders, bool pin, const nlohmann::json& flood,
-                          double start_hint) {
+                          double lowest_start) {
   const double flooded = flood["trained_samples_per_s"].get<double>();
   // A run passes when under 1 % of its segments went stale and the group kept pace: it trained
   // at least 95 % of what it was offered. A group that trains less has a growing queue, whose
@@ -566,11 +565,11 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
     }
     return ok;
   };
-  // From 90 % of the flooded rate, or of `start_hint` when higher (a group of replicas floods
+  // From 90 % of the flooded rate, or `lowest_start` when higher (a group of replicas floods
   // far below what it absorbs: the broker's pushing takes the replicas' cores), up by 10 % or
   // down by 15 % until one rate passes and another fails (at most 8 runs), then the gap
   // between them halved twice.
-  double passed = 0, failed = 0, rate = 0.9 * std::max(flooded, start_hint);
+  double passed = 0, failed = 0, rate = std::max(0.9 * flooded, lowest_start);
   for (int i = 0; i < 8 && (passed == 0 || failed == 0); ++i) {
     if (try_rate(rate)) {
       passed = rate;
@@ -690,10 +689,11 @@ int main(int argc, char** argv) {
           result["learner"].push_back(flood);
           continue;
         }
-        // A replica group's search starts near linear scaling of this round's one replica.
-        const double hint = replicas > 1 ? 0.85 * replicas * one_replica : 0;
+        // A replica group's search starts no lower than 77 % (0.9 x 0.85) of linear scaling of
+        // this round's one replica.
+        const double lowest_start = replicas > 1 ? 0.9 * 0.85 * replicas * one_replica : 0;
         nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                        senders, pin, flood, hint);
+                                        senders, pin, flood, lowest_start);
         run["round"] = round;
         const nlohmann::json& paced = run["paced"];
         const double flooded = flood["trained_samples_per_s"].get<double>();
