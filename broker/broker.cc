@@ -19,6 +19,9 @@ struct Broker::Metrics {
                             "Trajectory segments forwarded to the learner")),
         forwarded_bytes(m.Counter("ragdoll_broker_forwarded_bytes_total",
                                   "Bytes of trajectory segments forwarded to the learner")),
+        unforwarded(m.Counter("ragdoll_broker_segments_unforwarded_total",
+                              "Valid trajectory segments dropped because no learner could take "
+                              "them at once")),
         received_bytes(m.Counter("ragdoll_broker_received_bytes_total",
                                  "Bytes received on every socket, dropped messages included")),
         snapshots_received(m.Counter("ragdoll_broker_snapshots_received_total",
@@ -47,8 +50,8 @@ struct Broker::Metrics {
       }
     }
   }
-  prometheus::Counter &forwarded, &forwarded_bytes, &received_bytes, &snapshots_received,
-      &snapshots_published, &snapshot_requests, &heartbeats;
+  prometheus::Counter &forwarded, &forwarded_bytes, &unforwarded, &received_bytes,
+      &snapshots_received, &snapshots_published, &snapshot_requests, &heartbeats;
   prometheus::Gauge &actors, &snapshot_version, &replicas;
   prometheus::Counter& replica_groups;
   std::map<std::string, std::vector<prometheus::Counter*>> rejected;  // [socket][reason - 1]
@@ -123,9 +126,13 @@ void Broker::HandleTrajectory(zmq::message_t& message) {
   last_seen_[header.sender()] = Clock::now();
   size_t bytes = message.size();
   // Forwarded as received: the broker never decodes tensors.
+  // PollOnce reads a segment only when the learner can take one, so this fails only if every
+  // learner's queue filled in between (a replica leaving): counted, never silent.
   if (trajectories_out_.send(message, zmq::send_flags::dontwait)) {
     metrics_->forwarded.Increment();
     metrics_->forwarded_bytes.Increment(static_cast<double>(bytes));
+  } else {
+    metrics_->unforwarded.Increment();
   }
 }
 
@@ -284,7 +291,11 @@ void Broker::PollOnce(int timeout_ms) {
     throw;
   }
   if (items[0].revents & ZMQ_POLLIN) {
+    // A burst of up to 64, each read only while the learner can take one more: a segment read
+    // that the learner's full queue then refused would be lost (it was, before: a burst read 64
+    // against one free slot).
     for (int i = 0; i < 64; ++i) {
+      if (i > 0 && (trajectories_out_.get(zmq::sockopt::events) & ZMQ_POLLOUT) == 0) break;
       zmq::message_t message;
       if (!trajectories_in_.recv(message, zmq::recv_flags::dontwait)) break;
       metrics_->received_bytes.Increment(static_cast<double>(message.size()));
@@ -330,6 +341,7 @@ BrokerCounters Broker::counters() const {
   BrokerCounters c;
   c.forwarded = count(m.forwarded);
   c.forwarded_bytes = count(m.forwarded_bytes);
+  c.unforwarded = count(m.unforwarded);
   c.snapshots_received = count(m.snapshots_received);
   c.snapshots_published = count(m.snapshots_published);
   c.snapshot_requests = count(m.snapshot_requests);

@@ -31,6 +31,7 @@ struct BrokerConfig {
 struct BrokerCounters {
   int64_t forwarded = 0;  // segments passed to the learner
   int64_t forwarded_bytes = 0;
+  int64_t unforwarded = 0;  // valid segments no learner could take at once (dropped)
   int64_t snapshots_received = 0;
   int64_t snapshots_published = 0;
   int64_t snapshot_requests = 0;

@@ -16,7 +16,8 @@ namespace {
 // CURVE server whose keys folder holds one actor's and one learner's public key.
 class BrokerTest : public ::testing::Test {
  protected:
-  explicit BrokerTest(bool curve = false) {
+  explicit BrokerTest(bool curve = false, int high_water_mark = Endpoints{}.high_water_mark) {
+    config_.endpoints.high_water_mark = high_water_mark;
     if (curve) {
       keys_ =
           std::filesystem::temp_directory_path() / ("broker_test_keys_" + std::to_string(getpid()));
@@ -215,6 +216,49 @@ TEST_F(BrokerTest, RanksAGroupOfLearnerReplicasByTheirNewestCheckpoint) {
   // An impossible request is counted and dropped.
   other.send(zmq::buffer(hello("other", 0, "host-o", 0)), zmq::send_flags::none);
   EXPECT_TRUE(PollUntil([&] { return broker_->counters().Rejected() == 1; }));
+}
+
+// A learner slower than the actors: with queues of 2 messages a side, the broker stops reading
+// segments while the learner's queue is full (the actors' queues fill and they wait) instead of
+// reading a burst it cannot pass on. Every segment arrives, none is dropped.
+class SlowLearnerBrokerTest : public BrokerTest {
+ protected:
+  SlowLearnerBrokerTest() : BrokerTest(false, 2) {}
+};
+
+TEST_F(SlowLearnerBrokerTest, PassesEverySegmentWhenTheLearnerIsTheBottleneck) {
+  zmq::socket_t actor = Connect(zmq::socket_type::push, config_.endpoints.trajectory_port);
+  zmq::socket_t learner = Connect(zmq::socket_type::pull, config_.endpoints.learner_port);
+  v1::TrajectorySegment segment;
+  segment.set_actor_id("a");
+  // 256 kB each, so that the kernel's loopback buffers hold only a few and the queues do fill.
+  segment.mutable_observations()->set_dtype(v1::Tensor::DTYPE_FLOAT32);
+  segment.mutable_observations()->set_data(std::string(256 << 10, '\0'));
+  const std::string good = wire::Pack(v1::KIND_TRAJECTORY, "run", "a", segment, 3);
+  constexpr int kSegments = 200;
+  int sent = 0, received = 0, actor_waited = 0;
+  for (int i = 0; i < 40000 && received < kSegments; ++i) {
+    if (sent < kSegments) {
+      if (actor.send(zmq::buffer(good), zmq::send_flags::dontwait)) {
+        ++sent;
+      } else {
+        ++actor_waited;  // the actor's own queue is full: the broker is holding back
+      }
+    }
+    broker_->PollOnce(1);
+    zmq::message_t m;
+    if (i % 8 == 0 && learner.recv(m, zmq::recv_flags::dontwait)) {
+      EXPECT_EQ(m.size(), good.size());
+      ++received;
+    }
+  }
+  EXPECT_EQ(sent, kSegments);
+  EXPECT_EQ(received, kSegments);
+  EXPECT_GT(actor_waited, 0);  // the learner was the bottleneck, as meant
+  const BrokerCounters c = broker_->counters();
+  EXPECT_EQ(c.forwarded, kSegments);
+  EXPECT_EQ(c.unforwarded, 0);
+  EXPECT_EQ(Metric("ragdoll_broker_segments_unforwarded_total"), 0);
 }
 
 class CurveBrokerTest : public BrokerTest {
