@@ -34,7 +34,7 @@ train() {
 }
 rows() { tail -n +2 "$1/metrics.csv" | grep -c .; }
 
-train 40 3 "$work/train1.log"
+train 25 3 "$work/train1.log"
 ls "$run"/checkpoints/checkpoint-*.pt > /dev/null 2>&1 || fail "no checkpoint after Ctrl-C"
 echo "first session: $(rows "$run") PPO updates, $(ls "$run/checkpoints" | tail -n 1)"
 
