@@ -237,7 +237,12 @@ class Replay {
             next += static_cast<size_t>(threads);
             offered_.fetch_add(1);
           } else {
-            std::this_thread::sleep_for(std::chrono::microseconds(100));
+            // Flooding, the learners' queues are full (the broker reads only what they can
+            // take): wait until there is room or a snapshot comes. Retrying every 0.1 ms instead
+            // cost 0.24 cores of the learners' two.
+            zmq::pollitem_t items[] = {{push.handle(), 0, ZMQ_POLLOUT, 0},
+                                       {snapshots.handle(), 0, ZMQ_POLLIN, 0}};
+            zmq::poll(items, 2, std::chrono::milliseconds(50));
           }
         }
       });
