@@ -324,7 +324,7 @@ UpdateStats Learner::Update() {
         // KL, each weighted by this replica's share first, so their sum is the group's mean.
         // Overlapping it with the backward pass measured slower on pinned cores, both by hand
         // (the critic's bucket) and with DDP's own c10d::Reducer: the transfer takes the same
-        // core (deploy/README.md, "Sizing a cluster").
+        // core (docs/learner-scaling.md).
         ViewGradientsInGroupBuffer(params);
         group_gradients_.zero_();
         (loss.loss * weight).backward();
