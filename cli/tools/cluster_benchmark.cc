@@ -3,7 +3,10 @@
 // trajectory segments recorded from the real environment (valid messages, no physics), stamped
 // with the newest policy version they have heard of.
 //   ragdoll-bench-cluster CONFIG [--seconds S] [--threads 1,2] [--replicas 1,2] [--subscribers 100]
-//                         [--pin] [--repeats N]
+//                         [--pin [--harness-cores LIST]] [--repeats N]
+// --pin gives learner replica i (of T threads) cores i*T..i*T+T-1; --harness-cores keeps the
+// broker, the synthetic actors and this process on other cores, so that on a machine with cores
+// to spare nothing of the benchmark's runs on the learners' (without it they float over all).
 // It prints, and with --json writes:
 //   broker:    forwarding ceiling with a sink for a learner (segments/s, samples/s, MB/s, the
 //              broker's CPU share, and samples/s per broker core);
@@ -60,20 +63,23 @@ double Since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
+// Pins the calling thread, and the threads and processes it starts afterwards, to `cores`.
+void PinTo(const std::vector<int>& cores) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (int core : cores) CPU_SET(core, &set);
+  sched_setaffinity(0, sizeof(set), &set);
+}
+
 // A child process running `ragdoll ROLE ...`; stopped with SIGTERM (then SIGKILL) on destruction.
 class Process {
  public:
-  // `core` >= 0 pins the process to that core.
-  Process(const std::string& ragdoll, std::vector<std::string> args, int core = -1) {
+  // `cores`, when given, pins the process to them; otherwise it runs where this thread may.
+  Process(const std::string& ragdoll, std::vector<std::string> args, std::vector<int> cores = {}) {
     args.insert(args.begin(), ragdoll);
     pid_ = fork();
     if (pid_ == 0) {
-      if (core >= 0) {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        CPU_SET(core, &set);
-        sched_setaffinity(0, sizeof(set), &set);
-      }
+      if (!cores.empty()) PinTo(cores);
       // Keep the bench's own output readable: the roles' logs go to a file.
       FILE* log = std::fopen("/tmp/ragdoll-bench-cluster.log", "a");
       if (log != nullptr) {
@@ -372,7 +378,8 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 // (0: more than it can take). Trained samples/s and the stale-drop fraction.
 nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
-                            int replicas, double rate, int senders, bool pin) {
+                            int replicas, double rate, int senders, bool pin,
+                            const std::vector<int>& learner_cores) {
   const fs::path dir =
       fs::temp_directory_path() / ("ragdoll-bench-cluster-" + std::to_string(getpid()));
   fs::remove_all(dir);
@@ -403,7 +410,9 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
         RoleArgs("learner", bench_config.string(), ports,
                  {"--run-dir", (dir / "run").string(), "--replicas", std::to_string(replicas),
                   "--index", std::to_string(i)}),
-        pin ? i % static_cast<int>(std::thread::hardware_concurrency()) : -1));
+        pin ? std::vector<int>(learner_cores.begin() + i * threads,
+                               learner_cores.begin() + (i + 1) * threads)
+            : learner_cores));
   }
   auto trained = [&] { return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples"); };
   auto stale = [&] {
@@ -537,7 +546,8 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 // among the runs that passed.
 nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
-                          int replicas, int senders, bool pin, const nlohmann::json& flood,
+                          int replicas, int senders, bool pin,
+                          const std::vector<int>& learner_cores, const nlohmann::json& flood,
                           double lowest_start) {
   const double flooded = flood["trained_samples_per_s"].get<double>();
   // A run passes when under 1 % of its segments went stale and the group kept pace: it trained
@@ -549,8 +559,8 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                0.95 * run["offered_samples_per_s"].get<double>();
   };
   auto offer = [&](double rate) {
-    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
-                        pin);
+    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders, pin,
+                        learner_cores);
   };
   // A run's absorption is what was both offered and trained: a run may also train a
   // backlog queued before its window, and trains at most its capacity when offered more.
@@ -606,7 +616,7 @@ std::vector<int> Numbers(const std::string& list) {
 
 int main(int argc, char** argv) {
   CLI::App app("Broker ceiling, learner absorption and snapshot fan-out on loopback.");
-  std::string config, json_out, threads_list = "1,2", replicas_list = "1,2";
+  std::string config, json_out, threads_list = "1,2", replicas_list = "1,2", harness_list;
   std::string ragdoll = (fs::canonical("/proc/self/exe").parent_path() / "ragdoll").string();
   double seconds = 20;
   int subscribers = 100, senders = 2, port_base = 27000, repeats = 1;
@@ -631,11 +641,51 @@ int main(int argc, char** argv) {
   app.add_flag("--pin", pin,
                "pin learner replica i to core i (the broker and synthetic actors float), so "
                "that each replica has a core of its own");
+  app.add_option("--harness-cores", harness_list,
+                 "cores for the broker, the synthetic actors and this process (e.g. 2 or 2,3), "
+                 "none of the learners' under --pin: on a machine with cores to spare, the "
+                 "learners then share theirs with nothing of the benchmark's");
   app.add_flag("--curve", curve,
                "every socket on CURVE (keys made in build/bench-cluster-keys), to compare with a "
                "plaintext run");
   CLI11_PARSE(app, argc, argv);
   try {
+    // Where the learners run: with --pin, replica i of T threads on cores i*T .. i*T+T-1;
+    // otherwise anywhere but the harness's cores.
+    const int cores = static_cast<int>(std::thread::hardware_concurrency());
+    const std::vector<int> harness =
+        harness_list.empty() ? std::vector<int>{} : Numbers(harness_list);
+    std::vector<int> learner_cores;
+    int widest = 1;  // the most cores one learner group asks for under --pin
+    for (int t : Numbers(threads_list)) widest = std::max(widest, t);
+    for (int r : Numbers(replicas_list)) widest = std::max(widest, r);
+    for (int c = 0; c < cores; ++c) {
+      if (std::find(harness.begin(), harness.end(), c) == harness.end()) learner_cores.push_back(c);
+    }
+    for (int c : harness) {
+      if (c < 0 || c >= cores) {
+        throw std::runtime_error("--harness-cores: no core " + std::to_string(c) +
+                                 " (this machine has " + std::to_string(cores) + ")");
+      }
+    }
+    if (!harness.empty() && !pin) {
+      throw std::runtime_error(
+          "--harness-cores needs --pin, so that the learners' cores are known");
+    }
+    if (pin) {
+      // The learners take the first cores; --harness-cores must lie beyond them.
+      learner_cores.clear();
+      for (int c = 0; c < widest; ++c) learner_cores.push_back(c % cores);
+      for (int c : harness) {
+        if (c < widest) {
+          throw std::runtime_error("--harness-cores: core " + std::to_string(c) +
+                                   " is a learner's under --pin (cores 0-" +
+                                   std::to_string(widest - 1) + "); this needs at least " +
+                                   std::to_string(widest + 1) + " cores");
+        }
+      }
+    }
+    if (!harness.empty()) PinTo(harness);
     cli::Experiment e = cli::ReadExperiment(config);
     std::string keys;
     if (curve) {
@@ -655,7 +705,9 @@ int main(int argc, char** argv) {
                              {"curve", curve},
                              {"cores", std::thread::hardware_concurrency()},
                              {"bytes_per_sample", rec.bytes_per_sample},
-                             {"time_horizon", rec.time_horizon}};
+                             {"time_horizon", rec.time_horizon},
+                             {"pin", pin},
+                             {"harness_cores", harness}};
     std::printf("cluster benchmark (%s, %u cores, %.0f bytes per sample on the wire, %s)\n",
                 config.c_str(), std::thread::hardware_concurrency(), rec.bytes_per_sample,
                 curve ? "CURVE" : "plaintext");
@@ -686,8 +738,8 @@ int main(int argc, char** argv) {
       for (const auto& group : groups) {
         const int threads = group.first;
         const int replicas = group.second;
-        nlohmann::json flood =
-            BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, 0, senders, pin);
+        nlohmann::json flood = BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas,
+                                            0, senders, pin, learner_cores);
         if (flood.contains("error")) {
           std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
                       flood["error"].get<std::string>().c_str());
@@ -698,7 +750,7 @@ int main(int argc, char** argv) {
         // this round's one replica.
         const double lowest_start = replicas > 1 ? 0.9 * 0.85 * replicas * one_replica : 0;
         nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                        senders, pin, flood, lowest_start);
+                                        senders, pin, learner_cores, flood, lowest_start);
         run["round"] = round;
         const nlohmann::json& paced = run["paced"];
         const double flooded = flood["trained_samples_per_s"].get<double>();
