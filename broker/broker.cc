@@ -271,11 +271,18 @@ void Broker::HandleReplicaHello(const std::string& identity, const v1::ReplicaHe
   for (const auto& id : placed) pending_replicas_.erase(id);
 }
 
+namespace {
+// Whether a learner can take one more segment now (its queue has room).
+bool CanSend(zmq::socket_t& socket) {
+  return (socket.get(zmq::sockopt::events) & ZMQ_POLLOUT) != 0;
+}
+}  // namespace
+
 void Broker::PollOnce(int timeout_ms) {
   // Read segments only while the learner can take them: a stalled or absent learner stalls the
   // actors (their send queues fill) instead of piling segments up here. Waiting on the inbound
   // socket meanwhile would wake this loop at once, over and over: wait for the learner instead.
-  const bool learner_ready = (trajectories_out_.get(zmq::sockopt::events) & ZMQ_POLLOUT) != 0;
+  const bool learner_ready = CanSend(trajectories_out_);
   zmq::pollitem_t items[] = {
       {trajectories_in_.handle(), 0, static_cast<short>(learner_ready ? ZMQ_POLLIN : 0), 0},
       {control_.handle(), 0, ZMQ_POLLIN, 0},
@@ -291,11 +298,9 @@ void Broker::PollOnce(int timeout_ms) {
     throw;
   }
   if (items[0].revents & ZMQ_POLLIN) {
-    // A burst of up to 64, each read only while the learner can take one more: a segment read
-    // that the learner's full queue then refused would be lost (it was, before: a burst read 64
-    // against one free slot).
-    for (int i = 0; i < 64; ++i) {
-      if (i > 0 && (trajectories_out_.get(zmq::sockopt::events) & ZMQ_POLLOUT) == 0) break;
+    // A burst of up to 64, each segment read only while the learner can take it: one read that
+    // a full queue then refused would be lost.
+    for (int i = 0; i < 64 && CanSend(trajectories_out_); ++i) {
       zmq::message_t message;
       if (!trajectories_in_.recv(message, zmq::recv_flags::dontwait)) break;
       metrics_->received_bytes.Increment(static_cast<double>(message.size()));

@@ -375,10 +375,11 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 }
 
 // A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
-// (0: more than it can take). Trained samples/s and the stale-drop fraction.
+// (0: more than it can take). Trained samples/s and the stale-drop fraction. Replica i runs on
+// learner_cores[i*threads .. (i+1)*threads - 1] (--pin); with none given, anywhere.
 nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
-                            int replicas, double rate, int senders, bool pin,
+                            int replicas, double rate, int senders,
                             const std::vector<int>& learner_cores) {
   const fs::path dir =
       fs::temp_directory_path() / ("ragdoll-bench-cluster-" + std::to_string(getpid()));
@@ -410,9 +411,9 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
         RoleArgs("learner", bench_config.string(), ports,
                  {"--run-dir", (dir / "run").string(), "--replicas", std::to_string(replicas),
                   "--index", std::to_string(i)}),
-        pin ? std::vector<int>(learner_cores.begin() + i * threads,
-                               learner_cores.begin() + (i + 1) * threads)
-            : learner_cores));
+        learner_cores.empty() ? std::vector<int>{}
+                              : std::vector<int>(learner_cores.begin() + i * threads,
+                                                 learner_cores.begin() + (i + 1) * threads)));
   }
   auto trained = [&] { return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples"); };
   auto stale = [&] {
@@ -423,7 +424,8 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
     }
     return sum;
   };
-  nlohmann::json out = {{"threads", threads}, {"replicas", replicas}, {"pinned", pin}};
+  nlohmann::json out = {
+      {"threads", threads}, {"replicas", replicas}, {"pinned", !learner_cores.empty()}};
   zmq::context_t context(2);
   Replay replay(context, ports.endpoints, rec, senders, rate);
   // Warm up: two updates done, so the group has formed and the first update's set-up is past.
@@ -546,9 +548,8 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 // among the runs that passed.
 nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
-                          int replicas, int senders, bool pin,
-                          const std::vector<int>& learner_cores, const nlohmann::json& flood,
-                          double lowest_start) {
+                          int replicas, int senders, const std::vector<int>& learner_cores,
+                          const nlohmann::json& flood, double lowest_start) {
   const double flooded = flood["trained_samples_per_s"].get<double>();
   // A run passes when under 1 % of its segments went stale and the group kept pace: it trained
   // at least 95 % of what it was offered. A group that trains less has a growing queue, whose
@@ -559,7 +560,7 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                0.95 * run["offered_samples_per_s"].get<double>();
   };
   auto offer = [&](double rate) {
-    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders, pin,
+    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
                         learner_cores);
   };
   // A run's absorption is what was both offered and trained: a run may also train a
@@ -639,8 +640,9 @@ int main(int argc, char** argv) {
   app.add_option("--port-base", port_base, "ports PORT_BASE..PORT_BASE+60")->capture_default_str();
   app.add_option("--json", json_out, "also write the figures here");
   app.add_flag("--pin", pin,
-               "pin learner replica i to core i (the broker and synthetic actors float), so "
-               "that each replica has a core of its own");
+               "pin learner replica i of T threads to cores i*T..i*T+T-1 (the broker and the "
+               "synthetic actors float unless --harness-cores), so that each replica has cores "
+               "of its own");
   app.add_option("--harness-cores", harness_list,
                  "cores for the broker, the synthetic actors and this process (e.g. 2 or 2,3), "
                  "none of the learners' under --pin: on a machine with cores to spare, the "
@@ -650,33 +652,26 @@ int main(int argc, char** argv) {
                "plaintext run");
   CLI11_PARSE(app, argc, argv);
   try {
-    // Where the learners run: with --pin, replica i of T threads on cores i*T .. i*T+T-1;
-    // otherwise anywhere but the harness's cores.
+    // Under --pin the learners take the first cores (replica i of T threads: i*T .. i*T+T-1,
+    // wrapping on a small machine) and --harness-cores must lie beyond them; without it they float.
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
     const std::vector<int> harness =
         harness_list.empty() ? std::vector<int>{} : Numbers(harness_list);
-    std::vector<int> learner_cores;
-    int widest = 1;  // the most cores one learner group asks for under --pin
-    for (int t : Numbers(threads_list)) widest = std::max(widest, t);
-    for (int r : Numbers(replicas_list)) widest = std::max(widest, r);
-    for (int c = 0; c < cores; ++c) {
-      if (std::find(harness.begin(), harness.end(), c) == harness.end()) learner_cores.push_back(c);
-    }
-    for (int c : harness) {
-      if (c < 0 || c >= cores) {
-        throw std::runtime_error("--harness-cores: no core " + std::to_string(c) +
-                                 " (this machine has " + std::to_string(cores) + ")");
-      }
-    }
     if (!harness.empty() && !pin) {
       throw std::runtime_error(
           "--harness-cores needs --pin, so that the learners' cores are known");
     }
+    std::vector<int> learner_cores;
     if (pin) {
-      // The learners take the first cores; --harness-cores must lie beyond them.
-      learner_cores.clear();
+      int widest = 1;  // the most cores one learner group asks for
+      for (int t : Numbers(threads_list)) widest = std::max(widest, t);
+      for (int r : Numbers(replicas_list)) widest = std::max(widest, r);
       for (int c = 0; c < widest; ++c) learner_cores.push_back(c % cores);
       for (int c : harness) {
+        if (c < 0 || c >= cores) {
+          throw std::runtime_error("--harness-cores: no core " + std::to_string(c) +
+                                   " (this machine has " + std::to_string(cores) + ")");
+        }
         if (c < widest) {
           throw std::runtime_error("--harness-cores: core " + std::to_string(c) +
                                    " is a learner's under --pin (cores 0-" +
@@ -739,7 +734,7 @@ int main(int argc, char** argv) {
         const int threads = group.first;
         const int replicas = group.second;
         nlohmann::json flood = BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                            0, senders, pin, learner_cores);
+                                            0, senders, learner_cores);
         if (flood.contains("error")) {
           std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
                       flood["error"].get<std::string>().c_str());
@@ -750,7 +745,7 @@ int main(int argc, char** argv) {
         // this round's one replica.
         const double lowest_start = replicas > 1 ? 0.9 * 0.85 * replicas * one_replica : 0;
         nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                        senders, pin, learner_cores, flood, lowest_start);
+                                        senders, learner_cores, flood, lowest_start);
         run["round"] = round;
         const nlohmann::json& paced = run["paced"];
         const double flooded = flood["trained_samples_per_s"].get<double>();
