@@ -1,4 +1,4 @@
-#include "actor/sim/retarget.h"
+#include "motion/retarget.h"
 
 #include <algorithm>
 #include <cctype>
@@ -10,7 +10,28 @@
 #include "actor/sim/skeleton.h"
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AngleBetween;
+using sim::AxisAngle;
+using sim::Character;
+using sim::Conjugate;
+using sim::DataPtr;
+using sim::DecomposeHinges;
+using sim::FindJoint;
+using sim::HeadingOf;
+using sim::HingeAxes;
+using sim::Humanoid3dJoints;
+using sim::kIdentityQuat;
+using sim::MotionClip;
+using sim::Multiply;
+using sim::Normalized;
+using sim::Pose;
+using sim::Quat;
+using sim::Rotate;
+using sim::Vec3;
+using sim::YawOf;
+
 namespace {
 
 using Mat3 = std::array<Vec3, 3>;  // rows
@@ -672,4 +693,4 @@ std::string FormatBvh(const BvhMotion& bvh) {
   return out.str();
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

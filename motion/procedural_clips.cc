@@ -1,4 +1,4 @@
-#include "actor/sim/procedural_clips.h"
+#include "motion/procedural_clips.h"
 
 #include <algorithm>
 #include <array>
@@ -7,9 +7,19 @@
 #include <functional>
 #include <stdexcept>
 
-#include "actor/sim/leg_ik.h"
+#include "motion/leg_ik.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AxisAngle;
+using sim::Character;
+using sim::DataPtr;
+using sim::MotionClip;
+using sim::Multiply;
+using sim::Pose;
+using sim::Quat;
+using sim::Vec3;
+
 namespace {
 
 // Key frames per second. The walk uses more: its legs move fast enough that interpolating
@@ -671,4 +681,4 @@ std::vector<AuthoredClip> AuthorClips(const Character& character) {
   return clips;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,4 +1,4 @@
-#include "actor/sim/scene_import.h"
+#include "motion/scene_import.h"
 
 #include <assimp/config.h>
 #include <assimp/scene.h>
@@ -14,7 +14,13 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Normalized;
+using sim::Quat;
+using sim::Slerp;
+using sim::Vec3;
+
 namespace {
 
 // A 4x4 transform in double precision (column vectors: p' = M p).
@@ -470,4 +476,4 @@ SkeletonAnimation LoadSkeletonAnimation(const std::string& path, const std::stri
   return Scene(path).Load(animation, notes);
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion
