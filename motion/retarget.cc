@@ -164,6 +164,382 @@ std::map<std::string, Vec3> CharacterRest(const Character& character) {
   return rest;
 }
 
+[[noreturn]] void Fail(const SkeletonAnimation& source, const std::string& message) {
+  throw ConfigError(source.origin + ": " + message);
+}
+
+// The source skeleton as the character sees it: which source joint drives each part (after
+// mirroring, a left part reads the right joint) and the axes that take the source's coordinates
+// to the character's (x forward, y left, z up), found from its rest pose.
+class SourceOnCharacter {
+ public:
+  SourceOnCharacter(const SkeletonAnimation& source, const JointMapping& mapping,
+                    const ImportOptions& options, std::vector<std::string>* warnings)
+      : source_(source), mirror_(options.mirror) {
+    MapJoints(mapping, warnings);
+    for (const JointPose& p : source.rest) rest_position_.push_back(p.position);
+    FindAxes();
+  }
+
+  const SkeletonAnimation& source() const { return source_; }
+  bool has(const std::string& part) const { return joint_.count(part) > 0; }
+  int joint(const std::string& part) const { return joint_.at(part); }
+  const Vec3& rest_position(int j) const { return rest_position_[j]; }
+
+  // The far end of a part's bone: the mapped part, else the joint's first child.
+  int BoneEnd(const std::string& part, const std::string& end) const {
+    if (has(end)) return joint(end);
+    if (!has(part)) return -1;
+    for (size_t c = 0; c < source_.joints.size(); ++c) {
+      if (source_.joints[c].parent == joint(part)) return static_cast<int>(c);
+    }
+    return -1;
+  }
+  // A source position in the character's coordinates (mirrored if asked).
+  Vec3 InCharacter(const Vec3& v) const {
+    Vec3 c = Apply(to_character_, v);
+    return mirror_ ? Mirror(c) : c;
+  }
+  // A joint's rotation at a frame relative to its rest, in the character's coordinates.
+  Quat WorldAt(int f, int j) const {
+    Quat q = Multiply(source_.frames[f][j].rotation, Conjugate(source_.rest[j].rotation));
+    Quat world = Multiply(Multiply(to_character_q_, q), from_character_q_);
+    return mirror_ ? Mirror(world) : world;
+  }
+
+ private:
+  void MapJoints(const JointMapping& mapping, std::vector<std::string>* warnings) {
+    auto root = mapping.joints.find("root");
+    if (root == mapping.joints.end() || source_.Find(root->second) < 0) {
+      Fail(source_, "joint '" + (root == mapping.joints.end() ? std::string() : root->second) +
+                        "' (mapped to root in " + mapping.origin + ") is not in the file");
+    }
+    for (const auto& [part, name] : mapping.joints) {
+      int j = source_.Find(name);
+      if (j < 0) {
+        // A part the file lacks stays at rest (or, for bone ends, the joint's child is used).
+        if (warnings) {
+          warnings->push_back("joint '" + name + "' (" + part + ") is not in the file; " + part +
+                              " stays at rest");
+        }
+        continue;
+      }
+      joint_[mirror_ ? Swapped(part) : part] = j;
+    }
+    if (!has("root")) Fail(source_, "the mapping does not name the root joint");
+  }
+
+  // Up from the root to the top of the spine, left from the right hip (or shoulder) to the left.
+  void FindAxes() {
+    Vec3 up_raw = {0, 0, 0};
+    for (const char* top : {"neck", "chest", "head"}) {
+      if (has(top)) {
+        up_raw = Sub(rest_position_[joint(top)], rest_position_[joint("root")]);
+        if (Norm(up_raw) > 0) break;
+      }
+    }
+    if (!(Norm(up_raw) > 0)) Fail(source_, "cannot find the up direction: map chest, neck or head");
+    Vec3 left_raw = {0, 0, 0};
+    if (has("left_hip") && has("right_hip")) {
+      left_raw = Sub(rest_position_[joint("left_hip")], rest_position_[joint("right_hip")]);
+    } else if (has("left_shoulder") && has("right_shoulder")) {
+      left_raw =
+          Sub(rest_position_[joint("left_shoulder")], rest_position_[joint("right_shoulder")]);
+    }
+    if (mirror_) left_raw = Scale(left_raw, -1);
+    const Vec3 up = Snap(up_raw);
+    left_raw = Sub(left_raw, Scale(up, Dot(left_raw, up)));
+    if (!(Norm(left_raw) > 0)) {
+      Fail(source_, "cannot find left and right: map both hips or both shoulders");
+    }
+    const Vec3 left = Snap(left_raw);
+    const Vec3 forward = Cross(left, up);
+    to_character_ = {forward, left, up};
+    to_character_q_ = ToQuat(to_character_);
+    from_character_q_ = Conjugate(to_character_q_);
+  }
+
+  const SkeletonAnimation& source_;
+  const bool mirror_;
+  std::map<std::string, int> joint_;
+  std::vector<Vec3> rest_position_;
+  Mat3 to_character_;
+  Quat to_character_q_, from_character_q_;
+};
+
+// Metres per source unit: the character's leg length over the source's, hip to knee to ankle.
+double LegLengthScale(const SourceOnCharacter& view, const std::map<std::string, Vec3>& char_rest) {
+  double source_leg = 0, char_leg = 0;
+  for (const char* side : {"right_", "left_"}) {
+    const std::string hip = std::string(side) + "hip", knee = std::string(side) + "knee",
+                      ankle = std::string(side) + "ankle";
+    if (view.has(hip) && view.has(knee) && view.has(ankle)) {
+      source_leg +=
+          Norm(Sub(view.rest_position(view.joint(hip)), view.rest_position(view.joint(knee)))) +
+          Norm(Sub(view.rest_position(view.joint(knee)), view.rest_position(view.joint(ankle))));
+      char_leg += Norm(Sub(char_rest.at(hip), char_rest.at(knee))) +
+                  Norm(Sub(char_rest.at(knee), char_rest.at(ankle)));
+    }
+  }
+  if (!(source_leg > 0)) {
+    Fail(view.source(), "cannot find the leg length to scale by: map hips, knees and ankles");
+  }
+  return char_leg / source_leg;
+}
+
+// Per segment: whether a source joint drives it, and the rotation taking the character's rest
+// segment frame onto the source's.
+struct SegmentAlignments {
+  std::vector<Quat> alignment = std::vector<Quat>(kSegmentCount, kIdentityQuat);
+  std::vector<bool> driven = std::vector<bool>(kSegmentCount, false);
+};
+
+// Rest alignment of each segment: the rotation taking the character's rest segment frame (bone
+// direction, twist reference) onto the source's.
+SegmentAlignments AlignRestPoses(const SourceOnCharacter& view,
+                                 const std::map<std::string, Vec3>& char_rest) {
+  SegmentAlignments aligned;
+  for (int s = 0; s < kSegmentCount; ++s) {
+    const Segment& seg = kSegments[s];
+    if (!view.has(seg.part)) continue;
+    aligned.driven[s] = true;
+    int end = view.BoneEnd(seg.part, seg.bone_end);
+    if (end < 0) continue;  // no bone to align: rest frames taken as equal
+    Vec3 source_bone =
+        view.InCharacter(Sub(view.rest_position(end), view.rest_position(view.joint(seg.part))));
+    Vec3 char_bone = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
+    if (!(Norm(source_bone) > 1e-9)) continue;
+    Vec3 source_twist = {1, 0, 0}, char_twist = {1, 0, 0};
+    auto pair = [&](const char* l, const char* r) {
+      if (view.has(l) && view.has(r)) {
+        source_twist = view.InCharacter(
+            Sub(view.rest_position(view.joint(l)), view.rest_position(view.joint(r))));
+        char_twist = Sub(char_rest.at(l), char_rest.at(r));
+      }
+    };
+    if (seg.twist == Twist::kHipsLeft) pair("left_hip", "right_hip");
+    if (seg.twist == Twist::kShouldersLeft) pair("left_shoulder", "right_shoulder");
+    if (seg.twist == Twist::kUp) source_twist = char_twist = {0, 0, 1};
+    auto perpendicular = [](const Vec3& bone, const Vec3& t) {
+      return Norm(Sub(t, Scale(bone, Dot(t, bone) / Dot(bone, bone))));
+    };
+    // A twist reference along the bone fixes nothing: use the other world axis.
+    if (perpendicular(source_bone, source_twist) < 0.3 * Norm(source_twist) ||
+        perpendicular(char_bone, char_twist) < 0.3 * Norm(char_twist)) {
+      source_twist = char_twist = seg.twist == Twist::kUp ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+    }
+    aligned.alignment[s] =
+        ToQuat(Mul(Frame(source_bone, source_twist), Transpose(Frame(char_bone, char_twist))));
+  }
+  return aligned;
+}
+
+// Hinges from the motion: a knee or elbow bends about one axis, fixed in the thigh or upper
+// arm. Where the motion bends it enough to show that axis, the thigh's or upper arm's twist
+// (and the shin's or forearm's) is chosen so that the character's hinge lies along it. The rest
+// pose's twist is then not needed: files whose node transforms hold a bent pose rather than
+// the rest (Blender's exports of a bare armature) bend their knees and elbows as they should.
+void AlignHingesWithMotion(const SourceOnCharacter& view, const Character& character,
+                           const std::map<std::string, Vec3>& char_rest,
+                           const ImportOptions& options, SegmentAlignments* aligned) {
+  const SkeletonAnimation& source = view.source();
+  std::vector<Quat>& alignment = aligned->alignment;
+  const int first = std::max(options.first_frame, 0);
+  const int end = options.last_frame < 0 ? source.num_frames() - 1
+                                         : std::min(options.last_frame, source.num_frames() - 1);
+  const mjModel* m = character.model();
+  for (int h = 0; h < kSegmentCount; ++h) {
+    const Segment& seg = kSegments[h];
+    if (!seg.hinge || !aligned->driven[h] || !aligned->driven[seg.parent]) continue;
+    const Segment& parent = kSegments[seg.parent];
+    const int a = view.joint(parent.part), b = view.joint(seg.part),
+              c = view.BoneEnd(seg.part, seg.bone_end);
+    if (c < 0) continue;
+    // The source's bend axis in each segment's rest-relative frame, averaged over the frames
+    // bent by more than 20 degrees.
+    Vec3 axis_parent = {0, 0, 0}, axis_child = {0, 0, 0};
+    int bent = 0;
+    for (int f = first; f <= end; ++f) {
+      const auto& pose = source.frames[f];
+      const Vec3 u = view.InCharacter(Sub(pose[b].position, pose[a].position));
+      const Vec3 w = view.InCharacter(Sub(pose[c].position, pose[b].position));
+      const Vec3 n = Cross(u, w);
+      if (!(Norm(n) > std::sin(20 * M_PI / 180) * Norm(u) * Norm(w))) continue;
+      const Vec3 unit = Scale(n, 1 / Norm(n));
+      axis_parent = Add(axis_parent, Rotate(Conjugate(view.WorldAt(f, a)), unit));
+      axis_child = Add(axis_child, Rotate(Conjugate(view.WorldAt(f, b)), unit));
+      ++bent;
+    }
+    // Too few bent frames, or an axis that wanders (not a hinge): the rest pose decides.
+    if (bent < 10 || Norm(axis_parent) < 0.8 * bent || Norm(axis_child) < 0.8 * bent) continue;
+    // The character's bend axis at rest: its bone directions with the hinge flexed.
+    const int hinge = m->body_jntadr[character.BodyId(seg.part)];
+    const double* range = m->jnt_range + 2 * hinge;
+    const double flex = std::abs(range[1]) >= std::abs(range[0]) ? 0.5 : -0.5;
+    const Vec3 hinge_axis = {m->jnt_axis[3 * hinge], m->jnt_axis[3 * hinge + 1],
+                             m->jnt_axis[3 * hinge + 2]};
+    const Vec3 char_u = Sub(char_rest.at(seg.part), char_rest.at(parent.part));
+    const Vec3 char_w = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
+    const Vec3 char_axis = Cross(char_u, Rotate(AxisAngle(hinge_axis, flex), char_w));
+    if (!(Norm(char_axis) > 1e-9)) continue;
+    // Turn each alignment about its bone until the hinge lies along the source's axis.
+    auto twist_onto = [&](int s, const Vec3& char_bone, const Vec3& target) {
+      const Vec3 bone = Rotate(alignment[s], Scale(char_bone, 1 / Norm(char_bone)));
+      const Vec3 from = Rotate(alignment[s], char_axis);
+      auto flat = [&](const Vec3& v) { return Sub(v, Scale(bone, Dot(v, bone))); };
+      const Vec3 x = flat(from), y = flat(target);
+      if (!(Norm(x) > 1e-9 && Norm(y) > 1e-9)) return;
+      const double angle = std::atan2(Dot(bone, Cross(x, y)), Dot(x, y));
+      alignment[s] = Normalized(Multiply(AxisAngle(bone, angle), alignment[s]));
+    };
+    twist_onto(seg.parent, char_u, axis_parent);
+    twist_onto(h, char_w, axis_child);
+  }
+}
+
+// Feet: align each from the frames where the source's own foot is planted (ankle and toe near
+// their lowest, toe nearly still), so that a foot flat on the floor in the capture is flat on
+// the character's floor: the alignment that makes the character's foot level in those frames,
+// keeping the heading the rest alignment gives it.
+void LevelFeet(const SourceOnCharacter& view, int first, int last, double scale,
+               SegmentAlignments* aligned, std::vector<std::string>* warnings) {
+  const SkeletonAnimation& source = view.source();
+  for (const char* side : {"right_", "left_"}) {
+    const std::string ankle = std::string(side) + "ankle";
+    const int s = ankle[0] == 'r' ? 5 : 10;
+    const int toe = view.BoneEnd(ankle, std::string(side) + "toe");
+    if (!view.has(ankle) || toe < 0 || !aligned->driven[s]) continue;
+    const int a = view.joint(ankle);
+    auto height = [&](int f, int j) {
+      return view.InCharacter(source.frames[f][j].position)[2] * scale;
+    };
+    // The floor under this foot: its 1st-percentile heights (a glitch frame is not the floor).
+    std::vector<double> toe_heights, ankle_heights;
+    for (int f = first; f <= last; ++f) {
+      toe_heights.push_back(height(f, toe));
+      ankle_heights.push_back(height(f, a));
+    }
+    std::sort(toe_heights.begin(), toe_heights.end());
+    std::sort(ankle_heights.begin(), ankle_heights.end());
+    const double toe_min = toe_heights[toe_heights.size() / 100];
+    const double ankle_min = ankle_heights[ankle_heights.size() / 100];
+    const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
+    Quat sum = {0, 0, 0, 0};
+    int planted = 0;
+    for (int f = first; f <= last; ++f) {
+      if (height(f, toe) > toe_min + 0.03 || height(f, a) > ankle_min + 0.03) continue;
+      const int g = f < last ? f + 1 : f - 1;
+      Vec3 step = Scale(Sub(view.InCharacter(source.frames[g][toe].position),
+                            view.InCharacter(source.frames[f][toe].position)),
+                        scale);
+      if (std::hypot(step[0], step[1]) / dt > 0.3) continue;  // the toe slides or swings
+      const Quat world = view.WorldAt(f, a);
+      const Quat level = HeadingOf(Multiply(world, aligned->alignment[s]));
+      Quat candidate = Normalized(Multiply(Conjugate(world), level));
+      double same_side = 0;  // q and -q are one rotation: add them on one side
+      for (int i = 0; i < 4; ++i) same_side += sum[i] * candidate[i];
+      if (same_side < 0) {
+        for (double& x : candidate) x = -x;
+      }
+      for (int i = 0; i < 4; ++i) sum[i] += candidate[i];
+      ++planted;
+    }
+    char line[200];
+    if (planted < 3) {
+      std::snprintf(line, sizeof line,
+                    "%sfoot: planted in %d frames, too few to level it: aligned from the rest "
+                    "pose",
+                    side, planted);
+      if (warnings) warnings->push_back(line);
+      continue;
+    }
+    const Quat floor_alignment = Normalized(sum);
+    const double turn = AngleBetween(aligned->alignment[s], floor_alignment) * 180 / M_PI;
+    if (turn > 60) {
+      std::snprintf(line, sizeof line,
+                    "%sfoot: levelling it on its %d planted frames would turn it %.0f degrees: "
+                    "kept the rest pose's alignment",
+                    side, planted, turn);
+    } else {
+      std::snprintf(line, sizeof line,
+                    "%sfoot: levelled on its %d planted frames (%.1f degrees from the rest pose)",
+                    side, planted, turn);
+      aligned->alignment[s] = floor_alignment;
+    }
+    if (warnings) warnings->push_back(line);
+  }
+}
+
+// The character's poses over frames first..last: each driven segment takes its source joint's
+// world rotation composed with its alignment; the others stay at rest relative to their parent.
+std::vector<Pose> PoseFrames(const SourceOnCharacter& view, const SegmentAlignments& aligned,
+                             int first, int last, double scale) {
+  const SkeletonAnimation& source = view.source();
+  const auto& skeleton = Humanoid3dJoints();
+  std::vector<Pose> frames;
+  for (int f = first; f <= last; ++f) {
+    std::vector<Quat> global(kSegmentCount, kIdentityQuat);
+    Pose pose;
+    pose.joint_rotations.assign(skeleton.size(), kIdentityQuat);
+    for (int s = 0; s < kSegmentCount; ++s) {
+      const Segment& seg = kSegments[s];
+      const Quat parent = seg.parent < 0 ? kIdentityQuat : global[seg.parent];
+      if (!aligned.driven[s]) {
+        global[s] = parent;  // stays at rest relative to its parent
+        continue;
+      }
+      Quat g = Normalized(Multiply(view.WorldAt(f, view.joint(seg.part)), aligned.alignment[s]));
+      if (s == 0) {
+        global[s] = g;
+        continue;
+      }
+      Quat local = Normalized(Multiply(Conjugate(parent), g));
+      if (seg.hinge) {  // keep only the turn about the hinge (y): swing-twist decomposition
+        double angle = 2 * std::atan2(local[2], local[0]);
+        local = AxisAngle({0, 1, 0}, angle);
+      }
+      global[s] = Normalized(Multiply(parent, local));
+      pose.joint_rotations[FindJoint(seg.part)] = local;
+    }
+    pose.root_rotation = global[0];
+    pose.root_position =
+        Scale(view.InCharacter(source.frames[f][view.joint("root")].position), scale);
+    frames.push_back(std::move(pose));
+  }
+  return frames;
+}
+
+// Normalise: start at the origin facing +x, the feet on the floor. The floor is where the feet
+// are lowest, not the lowest point of anything: a capture whose hands reach the ground with the
+// source's longer arms would otherwise float the character's standing feet (the other bodies'
+// penetration is what `inspect` reports). The lowest 1 % of frames is left out, as capture
+// glitches.
+void PlaceOnFloor(const Character& character, std::vector<Pose>* frames) {
+  const Vec3 start = frames->front().root_position;
+  const Quat heading = AxisAngle({0, 0, 1}, -YawOf(frames->front().root_rotation));
+  for (Pose& p : *frames) {
+    p.root_rotation = Normalized(Multiply(heading, p.root_rotation));
+    p.root_position = Rotate(heading, Sub(p.root_position, {start[0], start[1], 0}));
+  }
+  const std::vector<int> feet = {character.BodyId("right_ankle"), character.BodyId("left_ankle")};
+  std::vector<double> foot_heights;
+  for (const Pose& p : *frames) foot_heights.push_back(character.LowestPoint(p, feet));
+  std::sort(foot_heights.begin(), foot_heights.end());
+  const double floor_height = foot_heights[foot_heights.size() / 100];
+  for (Pose& p : *frames) p.root_position[2] -= floor_height;
+}
+
+// The clip at `fps`: whole intervals over the same duration (a loop still closes exactly).
+MotionClip Resampled(const MotionClip& clip, double fps) {
+  const int intervals = std::max(1, static_cast<int>(std::lround(clip.duration() * fps)));
+  const double dt = clip.duration() / intervals;
+  std::vector<Pose> resampled;
+  for (int k = 0; k <= intervals; ++k)
+    resampled.push_back(clip.Sample(std::min(k * dt, clip.duration())));
+  std::vector<double> resampled_durations(resampled.size(), dt);
+  return MotionClip(clip.name(), clip.loop(), std::move(resampled_durations), std::move(resampled));
+}
+
 }  // namespace
 
 const std::vector<std::string>& MappingParts() {
@@ -206,332 +582,29 @@ JointMapping ReadJointMapping(const std::string& preset_or_path) {
 MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
                     const Character& character, const ImportOptions& options,
                     std::vector<std::string>* warnings) {
-  auto fail = [&](const std::string& message) -> void {
-    throw ConfigError(source.origin + ": " + message);
-  };
-  // Which source joint drives each part (after mirroring, a left part reads the right joint).
-  std::map<std::string, int> joint;
-  auto root = mapping.joints.find("root");
-  if (root == mapping.joints.end() || source.Find(root->second) < 0) {
-    fail("joint '" + (root == mapping.joints.end() ? std::string() : root->second) +
-         "' (mapped to root in " + mapping.origin + ") is not in the file");
-  }
-  for (const auto& [part, name] : mapping.joints) {
-    int j = source.Find(name);
-    if (j < 0) {
-      // A part the file lacks stays at rest (or, for bone ends, the joint's child is used).
-      if (warnings) {
-        warnings->push_back("joint '" + name + "' (" + part + ") is not in the file; " + part +
-                            " stays at rest");
-      }
-      continue;
-    }
-    joint[options.mirror ? Swapped(part) : part] = j;
-  }
-  auto has = [&](const std::string& part) { return joint.count(part) > 0; };
-  if (!has("root")) fail("the mapping does not name the root joint");
-
-  // The source's rest pose: where is up, where is forward, how big is it.
-  std::vector<Vec3> rest_position;
-  for (const JointPose& p : source.rest) rest_position.push_back(p.position);
-  // The far end of a part's bone: the mapped part, else the joint's first child.
-  auto bone_end = [&](const std::string& part, const std::string& end) -> int {
-    if (has(end)) return joint[end];
-    if (!has(part)) return -1;
-    for (size_t c = 0; c < source.joints.size(); ++c) {
-      if (source.joints[c].parent == joint[part]) return static_cast<int>(c);
-    }
-    return -1;
-  };
-  Vec3 up_raw = {0, 0, 0};
-  for (const char* top : {"neck", "chest", "head"}) {
-    if (has(top)) {
-      up_raw = Sub(rest_position[joint[top]], rest_position[joint["root"]]);
-      if (Norm(up_raw) > 0) break;
-    }
-  }
-  if (!(Norm(up_raw) > 0)) fail("cannot find the up direction: map chest, neck or head");
-  Vec3 left_raw = {0, 0, 0};
-  if (has("left_hip") && has("right_hip")) {
-    left_raw = Sub(rest_position[joint["left_hip"]], rest_position[joint["right_hip"]]);
-  } else if (has("left_shoulder") && has("right_shoulder")) {
-    left_raw = Sub(rest_position[joint["left_shoulder"]], rest_position[joint["right_shoulder"]]);
-  }
-  if (options.mirror) left_raw = Scale(left_raw, -1);
-  const Vec3 up = Snap(up_raw);
-  left_raw = Sub(left_raw, Scale(up, Dot(left_raw, up)));
-  if (!(Norm(left_raw) > 0)) fail("cannot find left and right: map both hips or both shoulders");
-  const Vec3 left = Snap(left_raw);
-  const Vec3 forward = Cross(left, up);
-  // Source coordinates -> the character's (x forward, y left, z up).
-  const Mat3 to_character = {forward, left, up};
-  const Quat to_character_q = ToQuat(to_character);
-  const Quat from_character_q = Conjugate(to_character_q);
-
-  double scale = options.scale;
+  const SourceOnCharacter view(source, mapping, options, warnings);
   const std::map<std::string, Vec3> char_rest = CharacterRest(character);
-  if (!(scale > 0)) {
-    double source_leg = 0, char_leg = 0;
-    for (const char* side : {"right_", "left_"}) {
-      const std::string hip = std::string(side) + "hip", knee = std::string(side) + "knee",
-                        ankle = std::string(side) + "ankle";
-      if (has(hip) && has(knee) && has(ankle)) {
-        source_leg += Norm(Sub(rest_position[joint[hip]], rest_position[joint[knee]])) +
-                      Norm(Sub(rest_position[joint[knee]], rest_position[joint[ankle]]));
-        char_leg += Norm(Sub(char_rest.at(hip), char_rest.at(knee))) +
-                    Norm(Sub(char_rest.at(knee), char_rest.at(ankle)));
-      }
-    }
-    if (!(source_leg > 0)) {
-      fail("cannot find the leg length to scale by: map hips, knees and ankles");
-    }
-    scale = char_leg / source_leg;
-  }
-
-  // A source position in the character's coordinates (mirrored if asked).
-  auto in_character = [&](const Vec3& v) {
-    Vec3 c = Apply(to_character, v);
-    return options.mirror ? Mirror(c) : c;
-  };
-  // A joint's rotation at a frame relative to its rest, in the character's coordinates.
-  auto world_at = [&](int f, int j) {
-    Quat q = Multiply(source.frames[f][j].rotation, Conjugate(source.rest[j].rotation));
-    Quat world = Multiply(Multiply(to_character_q, q), from_character_q);
-    return options.mirror ? Mirror(world) : world;
-  };
-  // Rest alignment of each segment: the rotation taking the character's rest segment frame
-  // (bone direction, twist reference) onto the source's.
-  std::vector<Quat> alignment(kSegmentCount, kIdentityQuat);
-  std::vector<bool> driven(kSegmentCount, false);
-  for (int s = 0; s < kSegmentCount; ++s) {
-    const Segment& seg = kSegments[s];
-    if (!has(seg.part)) continue;
-    driven[s] = true;
-    int end = bone_end(seg.part, seg.bone_end);
-    if (end < 0) continue;  // no bone to align: rest frames taken as equal
-    Vec3 source_bone = in_character(Sub(rest_position[end], rest_position[joint[seg.part]]));
-    Vec3 char_bone = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
-    if (!(Norm(source_bone) > 1e-9)) continue;
-    Vec3 source_twist = {1, 0, 0}, char_twist = {1, 0, 0};
-    auto pair = [&](const char* l, const char* r) {
-      if (has(l) && has(r)) {
-        source_twist = in_character(Sub(rest_position[joint[l]], rest_position[joint[r]]));
-        char_twist = Sub(char_rest.at(l), char_rest.at(r));
-      }
-    };
-    if (seg.twist == Twist::kHipsLeft) pair("left_hip", "right_hip");
-    if (seg.twist == Twist::kShouldersLeft) pair("left_shoulder", "right_shoulder");
-    if (seg.twist == Twist::kUp) source_twist = char_twist = {0, 0, 1};
-    auto perpendicular = [](const Vec3& bone, const Vec3& t) {
-      return Norm(Sub(t, Scale(bone, Dot(t, bone) / Dot(bone, bone))));
-    };
-    // A twist reference along the bone fixes nothing: use the other world axis.
-    if (perpendicular(source_bone, source_twist) < 0.3 * Norm(source_twist) ||
-        perpendicular(char_bone, char_twist) < 0.3 * Norm(char_twist)) {
-      source_twist = char_twist = seg.twist == Twist::kUp ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
-    }
-    alignment[s] =
-        ToQuat(Mul(Frame(source_bone, source_twist), Transpose(Frame(char_bone, char_twist))));
-  }
-
-  // Hinges from the motion: a knee or elbow bends about one axis, fixed in the thigh or upper
-  // arm. Where the motion bends it enough to show that axis, the thigh's or upper arm's twist
-  // (and the shin's or forearm's) is chosen so that the character's hinge lies along it. The rest
-  // pose's twist is then not needed: files whose node transforms hold a bent pose rather than
-  // the rest (Blender's exports of a bare armature) bend their knees and elbows as they should.
-  {
-    const int first = std::max(options.first_frame, 0);
-    const int end = options.last_frame < 0 ? source.num_frames() - 1
-                                           : std::min(options.last_frame, source.num_frames() - 1);
-    const mjModel* m = character.model();
-    for (int h = 0; h < kSegmentCount; ++h) {
-      const Segment& seg = kSegments[h];
-      if (!seg.hinge || !driven[h] || !driven[seg.parent]) continue;
-      const Segment& parent = kSegments[seg.parent];
-      const int a = joint[parent.part], b = joint[seg.part], c = bone_end(seg.part, seg.bone_end);
-      if (c < 0) continue;
-      // The source's bend axis in each segment's rest-relative frame, averaged over the frames
-      // bent by more than 20 degrees.
-      Vec3 axis_parent = {0, 0, 0}, axis_child = {0, 0, 0};
-      int bent = 0;
-      for (int f = first; f <= end; ++f) {
-        const auto& pose = source.frames[f];
-        const Vec3 u = in_character(Sub(pose[b].position, pose[a].position));
-        const Vec3 w = in_character(Sub(pose[c].position, pose[b].position));
-        const Vec3 n = Cross(u, w);
-        if (!(Norm(n) > std::sin(20 * M_PI / 180) * Norm(u) * Norm(w))) continue;
-        const Vec3 unit = Scale(n, 1 / Norm(n));
-        axis_parent = Add(axis_parent, Rotate(Conjugate(world_at(f, a)), unit));
-        axis_child = Add(axis_child, Rotate(Conjugate(world_at(f, b)), unit));
-        ++bent;
-      }
-      // Too few bent frames, or an axis that wanders (not a hinge): the rest pose decides.
-      if (bent < 10 || Norm(axis_parent) < 0.8 * bent || Norm(axis_child) < 0.8 * bent) continue;
-      // The character's bend axis at rest: its bone directions with the hinge flexed.
-      const int hinge = m->body_jntadr[character.BodyId(seg.part)];
-      const double* range = m->jnt_range + 2 * hinge;
-      const double flex = std::abs(range[1]) >= std::abs(range[0]) ? 0.5 : -0.5;
-      const Vec3 hinge_axis = {m->jnt_axis[3 * hinge], m->jnt_axis[3 * hinge + 1],
-                               m->jnt_axis[3 * hinge + 2]};
-      const Vec3 char_u = Sub(char_rest.at(seg.part), char_rest.at(parent.part));
-      const Vec3 char_w = Sub(char_rest.at(seg.bone_end), char_rest.at(seg.part));
-      const Vec3 char_axis = Cross(char_u, Rotate(AxisAngle(hinge_axis, flex), char_w));
-      if (!(Norm(char_axis) > 1e-9)) continue;
-      // Turn each alignment about its bone until the hinge lies along the source's axis.
-      auto twist_onto = [&](int s, const Vec3& char_bone, const Vec3& target) {
-        const Vec3 bone = Rotate(alignment[s], Scale(char_bone, 1 / Norm(char_bone)));
-        const Vec3 from = Rotate(alignment[s], char_axis);
-        auto flat = [&](const Vec3& v) { return Sub(v, Scale(bone, Dot(v, bone))); };
-        const Vec3 x = flat(from), y = flat(target);
-        if (!(Norm(x) > 1e-9 && Norm(y) > 1e-9)) return;
-        const double angle = std::atan2(Dot(bone, Cross(x, y)), Dot(x, y));
-        alignment[s] = Normalized(Multiply(AxisAngle(bone, angle), alignment[s]));
-      };
-      twist_onto(seg.parent, char_u, axis_parent);
-      twist_onto(h, char_w, axis_child);
-    }
-  }
-
-  // Frames.
+  const double scale = options.scale > 0 ? options.scale : LegLengthScale(view, char_rest);
+  SegmentAlignments aligned = AlignRestPoses(view, char_rest);
+  AlignHingesWithMotion(view, character, char_rest, options, &aligned);
   const int last = options.last_frame < 0 ? source.num_frames() - 1 : options.last_frame;
   if (options.first_frame < 0 || last >= source.num_frames() || last - options.first_frame < 1) {
-    fail("frame range " + std::to_string(options.first_frame) + ".." + std::to_string(last) +
-         " needs at least two of the file's " + std::to_string(source.num_frames()) + " frames");
+    Fail(source, "frame range " + std::to_string(options.first_frame) + ".." +
+                     std::to_string(last) + " needs at least two of the file's " +
+                     std::to_string(source.num_frames()) + " frames");
   }
-
-  // Feet: align each from the frames where the source's own foot is planted (ankle and toe
-  // near their lowest, toe nearly still), so that a foot flat on the floor in the capture is
-  // flat on the character's floor: the alignment that makes the character's foot level in
-  // those frames, keeping the heading the rest alignment gives it.
   if (options.feet == ImportOptions::Feet::kFloor) {
-    for (const char* side : {"right_", "left_"}) {
-      const std::string ankle = std::string(side) + "ankle";
-      const int s = ankle[0] == 'r' ? 5 : 10;
-      const int toe = bone_end(ankle, std::string(side) + "toe");
-      if (!has(ankle) || toe < 0 || !driven[s]) continue;
-      const int a = joint[ankle];
-      auto height = [&](int f, int j) {
-        return in_character(source.frames[f][j].position)[2] * scale;
-      };
-      // The floor under this foot: its 1st-percentile heights (a glitch frame is not the floor).
-      std::vector<double> toe_heights, ankle_heights;
-      for (int f = options.first_frame; f <= last; ++f) {
-        toe_heights.push_back(height(f, toe));
-        ankle_heights.push_back(height(f, a));
-      }
-      std::sort(toe_heights.begin(), toe_heights.end());
-      std::sort(ankle_heights.begin(), ankle_heights.end());
-      const double toe_min = toe_heights[toe_heights.size() / 100];
-      const double ankle_min = ankle_heights[ankle_heights.size() / 100];
-      const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
-      Quat sum = {0, 0, 0, 0};
-      int planted = 0;
-      for (int f = options.first_frame; f <= last; ++f) {
-        if (height(f, toe) > toe_min + 0.03 || height(f, a) > ankle_min + 0.03) continue;
-        const int g = f < last ? f + 1 : f - 1;
-        Vec3 step = Scale(Sub(in_character(source.frames[g][toe].position),
-                              in_character(source.frames[f][toe].position)),
-                          scale);
-        if (std::hypot(step[0], step[1]) / dt > 0.3) continue;  // the toe slides or swings
-        const Quat world = world_at(f, a);
-        const Quat level = HeadingOf(Multiply(world, alignment[s]));
-        Quat candidate = Normalized(Multiply(Conjugate(world), level));
-        double same_side = 0;  // q and -q are one rotation: add them on one side
-        for (int i = 0; i < 4; ++i) same_side += sum[i] * candidate[i];
-        if (same_side < 0) {
-          for (double& x : candidate) x = -x;
-        }
-        for (int i = 0; i < 4; ++i) sum[i] += candidate[i];
-        ++planted;
-      }
-      char line[200];
-      if (planted < 3) {
-        std::snprintf(line, sizeof line,
-                      "%sfoot: planted in %d frames, too few to level it: aligned from the rest "
-                      "pose",
-                      side, planted);
-        if (warnings) warnings->push_back(line);
-        continue;
-      }
-      const Quat floor_alignment = Normalized(sum);
-      const double turn = AngleBetween(alignment[s], floor_alignment) * 180 / M_PI;
-      if (turn > 60) {
-        std::snprintf(line, sizeof line,
-                      "%sfoot: levelling it on its %d planted frames would turn it %.0f degrees: "
-                      "kept the rest pose's alignment",
-                      side, planted, turn);
-      } else {
-        std::snprintf(line, sizeof line,
-                      "%sfoot: levelled on its %d planted frames (%.1f degrees from the rest pose)",
-                      side, planted, turn);
-        alignment[s] = floor_alignment;
-      }
-      if (warnings) warnings->push_back(line);
-    }
+    LevelFeet(view, options.first_frame, last, scale, &aligned, warnings);
   }
-
-  const auto& skeleton = Humanoid3dJoints();
-  std::vector<Pose> frames;
-  for (int f = options.first_frame; f <= last; ++f) {
-    std::vector<Quat> global(kSegmentCount, kIdentityQuat);
-    Pose pose;
-    pose.joint_rotations.assign(skeleton.size(), kIdentityQuat);
-    for (int s = 0; s < kSegmentCount; ++s) {
-      const Segment& seg = kSegments[s];
-      const Quat parent = seg.parent < 0 ? kIdentityQuat : global[seg.parent];
-      if (!driven[s]) {
-        global[s] = parent;  // stays at rest relative to its parent
-        continue;
-      }
-      Quat g = Normalized(Multiply(world_at(f, joint[seg.part]), alignment[s]));
-      if (s == 0) {
-        global[s] = g;
-        continue;
-      }
-      Quat local = Normalized(Multiply(Conjugate(parent), g));
-      if (seg.hinge) {  // keep only the turn about the hinge (y): swing-twist decomposition
-        double angle = 2 * std::atan2(local[2], local[0]);
-        local = AxisAngle({0, 1, 0}, angle);
-      }
-      global[s] = Normalized(Multiply(parent, local));
-      pose.joint_rotations[FindJoint(seg.part)] = local;
-    }
-    pose.root_rotation = global[0];
-    pose.root_position = Scale(in_character(source.frames[f][joint["root"]].position), scale);
-    frames.push_back(std::move(pose));
-  }
-
-  // Normalise: start at the origin facing +x, the feet on the floor. The floor is where the
-  // feet are lowest, not the lowest point of anything: a capture whose hands reach the ground
-  // with the source's longer arms would otherwise float the character's standing feet (the
-  // other bodies' penetration is what `inspect` reports). The lowest 1 % of frames is left out,
-  // as capture glitches.
-  const Vec3 start = frames.front().root_position;
-  const Quat heading = AxisAngle({0, 0, 1}, -YawOf(frames.front().root_rotation));
-  for (Pose& p : frames) {
-    p.root_rotation = Normalized(Multiply(heading, p.root_rotation));
-    p.root_position = Rotate(heading, Sub(p.root_position, {start[0], start[1], 0}));
-  }
-  const std::vector<int> feet = {character.BodyId("right_ankle"), character.BodyId("left_ankle")};
-  std::vector<double> foot_heights;
-  for (const Pose& p : frames) foot_heights.push_back(character.LowestPoint(p, feet));
-  std::sort(foot_heights.begin(), foot_heights.end());
-  const double floor_height = foot_heights[foot_heights.size() / 100];
-  for (Pose& p : frames) p.root_position[2] -= floor_height;
+  std::vector<Pose> frames = PoseFrames(view, aligned, options.first_frame, last, scale);
+  PlaceOnFloor(character, &frames);
 
   std::string name =
       options.name.empty() ? std::filesystem::path(source.origin).stem().string() : options.name;
   std::vector<double> durations(frames.size(), source.frame_time);
   MotionClip clip(name, options.loop, durations, frames);
   if (!(options.fps > 0)) return clip;
-  // Resample: whole intervals over the same duration (a loop still closes exactly).
-  const int intervals = std::max(1, static_cast<int>(std::lround(clip.duration() * options.fps)));
-  const double dt = clip.duration() / intervals;
-  std::vector<Pose> resampled;
-  for (int k = 0; k <= intervals; ++k)
-    resampled.push_back(clip.Sample(std::min(k * dt, clip.duration())));
-  std::vector<double> resampled_durations(resampled.size(), dt);
-  return MotionClip(name, options.loop, std::move(resampled_durations), std::move(resampled));
+  return Resampled(clip, options.fps);
 }
 
 BvhMotion ClipToBvh(const MotionClip& clip, const Character& character, const JointMapping& naming,
