@@ -23,7 +23,8 @@ using sim::Vec3;
 namespace {
 
 // Key frames per second. The walk uses more: its legs move fast enough that interpolating
-// joint rotations between 30 fps key frames lets a planted sole dip 7 mm into the floor.
+// joint rotations between 30 fps key frames lets a planted sole dip into the floor
+// (docs/motion-import.md, "Authored clips").
 constexpr double kFps = 30;
 constexpr double kWalkFps = 60;
 
@@ -245,9 +246,8 @@ struct Gait {
 
 // The worst a foot may miss its target by before authoring gives up. The gaits are designed
 // within the legs' reach, except around the walk's heel strike, which the start and stop clips
-// share with the walk: there the target is 1.5 mm beyond a straight leg on the floor, and about
-// a centimetre in the last tenth of the swing before it (the shipped walk's legs stop short
-// there too).
+// share with the walk: there the target lies just beyond a straight leg (docs/motion-import.md,
+// "Authored clips").
 constexpr double kMaxPlantedMiss = 0.002;  // m
 constexpr double kMaxSwingMiss = 0.015;    // m
 constexpr double kMaxMissAngle = 0.01;     // rad
@@ -434,8 +434,8 @@ std::array<std::vector<Foothold>, 2> WalkFootholds(
   return holds;
 }
 
-// The height of the ankle joints in the stand clip's pose: 0.17 mm above kAnkleHeight, as
-// SetLeg keeps a leg at most 99.9 % straight. The clips that start or end standing stand so.
+// The height of the ankle joints in the stand clip's pose: a little above kAnkleHeight, as
+// SetLeg never straightens a leg fully. The clips that start or end standing stand so.
 double StandAnkleHeight(const Character& character) {
   const mjModel* m = character.model();
   Frame f;
