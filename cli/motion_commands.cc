@@ -7,13 +7,13 @@
 #include <iostream>
 #include <memory>
 
-#include "actor/sim/auto_mapping.h"
-#include "actor/sim/bvh.h"
-#include "actor/sim/clip_report.h"
-#include "actor/sim/foot_cleanup.h"
 #include "actor/sim/motion_io.h"
-#include "actor/sim/retarget.h"
-#include "actor/sim/scene_import.h"
+#include "motion/auto_mapping.h"
+#include "motion/bvh.h"
+#include "motion/clip_report.h"
+#include "motion/foot_cleanup.h"
+#include "motion/retarget.h"
+#include "motion/scene_import.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -22,7 +22,7 @@ struct MotionOptions {
   std::string input, output, mapping = "auto", animation, feet = "floor", bvh_reader = "ragdoll",
                              naming = "ragdoll", order = "ZXY", units = "m", up = "y", character,
                              json;
-  sim::ImportOptions import;
+  motion::ImportOptions import;
   bool inspect_after = true;
   bool fix_feet = false;
 };
@@ -35,19 +35,19 @@ int Import(const MotionOptions& o) {
   using Clock = std::chrono::steady_clock;
   auto t0 = Clock::now();
   std::vector<std::string> notes;
-  sim::SkeletonAnimation source = sim::LoadSkeletonAnimation(
+  motion::SkeletonAnimation source = motion::LoadSkeletonAnimation(
       o.input, o.animation, &notes,
-      o.bvh_reader == "assimp" ? sim::BvhReader::kAssimp : sim::BvhReader::kRagdoll);
+      o.bvh_reader == "assimp" ? motion::BvhReader::kAssimp : motion::BvhReader::kRagdoll);
   auto t1 = Clock::now();
   auto character = sim::Character::Load(CharacterPath(o.character));
-  sim::JointMapping mapping = sim::ResolveMapping(o.mapping, source, &notes);
-  sim::ImportOptions options = o.import;
+  motion::JointMapping mapping = motion::ResolveMapping(o.mapping, source, &notes);
+  motion::ImportOptions options = o.import;
   options.feet =
-      o.feet == "rest" ? sim::ImportOptions::Feet::kRest : sim::ImportOptions::Feet::kFloor;
-  sim::MotionClip clip = sim::Retarget(source, mapping, *character, options, &notes);
+      o.feet == "rest" ? motion::ImportOptions::Feet::kRest : motion::ImportOptions::Feet::kFloor;
+  sim::MotionClip clip = motion::Retarget(source, mapping, *character, options, &notes);
   if (o.fix_feet) {
-    sim::FootCleanupReport fixed;
-    clip = sim::FixFeet(clip, *character, sim::FootCleanupOptions{}, &fixed);
+    motion::FootCleanupReport fixed;
+    clip = motion::FixFeet(clip, *character, motion::FootCleanupOptions{}, &fixed);
     char line[400];
     std::snprintf(line, sizeof(line),
                   "fix-feet: %d right and %d left plants (%.0f %% / %.0f %% of frames) put on "
@@ -78,19 +78,19 @@ int Import(const MotionOptions& o) {
                source.joints.size(), o.output.c_str(), clip.num_frames(), clip.duration(),
                std::chrono::duration<double, std::milli>(t1 - t0).count(),
                std::chrono::duration<double, std::milli>(t2 - t1).count());
-  if (o.inspect_after) std::cout << sim::InspectClip(clip, *character).ToText();
+  if (o.inspect_after) std::cout << motion::InspectClip(clip, *character).ToText();
   return 0;
 }
 
 int Export(const MotionOptions& o) {
   auto character = sim::Character::Load(CharacterPath(o.character));
   sim::MotionClip clip = sim::LoadMotion(o.input);
-  sim::ExportOptions e;
+  motion::ExportOptions e;
   e.rotation_order = o.order;
   e.units_per_metre = o.units == "cm" ? 100 : 1;
   e.y_up = o.up == "y";
   std::string text =
-      sim::FormatBvh(sim::ClipToBvh(clip, *character, sim::ReadJointMapping(o.naming), e));
+      motion::FormatBvh(motion::ClipToBvh(clip, *character, motion::ReadJointMapping(o.naming), e));
   std::ofstream out(o.output);
   out << text;
   if (!out) throw std::runtime_error(o.output + ": cannot write");
@@ -103,7 +103,7 @@ int Export(const MotionOptions& o) {
 int Inspect(const MotionOptions& o) {
   auto character = sim::Character::Load(CharacterPath(o.character));
   sim::MotionClip clip = sim::LoadMotion(o.input);
-  sim::ClipReport report = sim::InspectClip(clip, *character);
+  motion::ClipReport report = motion::InspectClip(clip, *character);
   std::cout << report.ToText();
   if (!o.json.empty()) std::ofstream(o.json) << report.ToJson() << "\n";
   return 0;

@@ -5,7 +5,7 @@
 #include <limits>
 #include <stdexcept>
 
-#include "actor/sim/clip_report.h"
+#include "actor/sim/ground_contacts.h"
 #include "actor/sim/motion_io.h"
 #include "common/config_section.h"
 

@@ -3,12 +3,12 @@
 #include <cstdint>
 #include <string>
 
-#include "actor/sim/bvh.h"
 #include "common/config_section.h"
+#include "motion/bvh.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
-    ragdoll::sim::ParseBvh(std::string(reinterpret_cast<const char*>(data), size), "fuzz.bvh");
+    ragdoll::motion::ParseBvh(std::string(reinterpret_cast<const char*>(data), size), "fuzz.bvh");
   } catch (const ragdoll::ConfigError&) {
   }
   return 0;

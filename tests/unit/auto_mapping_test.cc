@@ -1,4 +1,4 @@
-#include "actor/sim/auto_mapping.h"
+#include "motion/auto_mapping.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,11 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::kIdentityQuat;
+using sim::Vec3;
+
 namespace {
 
 // Rest positions of a T-posed humanoid, Y up, facing +Z (its left is +X), in centimetres, by
@@ -415,4 +419,4 @@ TEST(AutoMappingTest, ResolveMappingReadsPresetsAndAuto) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

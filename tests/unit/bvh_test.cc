@@ -1,4 +1,4 @@
-#include "actor/sim/bvh.h"
+#include "motion/bvh.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,13 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AxisAngle;
+using sim::Multiply;
+using sim::Rotate;
+using sim::Vec3;
+
 namespace {
 
 // A root with 6 channels (positions then Z X Y rotations), a child with a different rotation
@@ -136,4 +142,4 @@ TEST(Bvh, AMissingFileIsAConfigError) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,11 +1,20 @@
-#include "actor/sim/clip_report.h"
+#include "motion/clip_report.h"
 
 #include <gtest/gtest.h>
 
 #include "actor/sim/motion_io.h"
 #include "actor/sim/skeleton.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AxisAngle;
+using sim::Character;
+using sim::FindJoint;
+using sim::Humanoid3dJoints;
+using sim::LoadMotion;
+using sim::MotionClip;
+using sim::Pose;
+
 namespace {
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
@@ -83,4 +92,4 @@ TEST_F(ClipReportTest, FindsPenetrationSlidingAndJointLimits) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,15 +1,24 @@
-#include "actor/sim/foot_cleanup.h"
+#include "motion/foot_cleanup.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <stdexcept>
 
-#include "actor/sim/clip_report.h"
 #include "actor/sim/motion_io.h"
 #include "actor/sim/skeleton.h"
+#include "motion/clip_report.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Character;
+using sim::DataPtr;
+using sim::FindJoint;
+using sim::LoadMotion;
+using sim::MotionClip;
+using sim::Pose;
+using sim::Vec3;
+
 namespace {
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
@@ -146,4 +155,4 @@ TEST_F(FootCleanupTest, RefusesThresholdsThatAreNotPositive) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

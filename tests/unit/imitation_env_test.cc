@@ -6,7 +6,7 @@
 #include <cstring>
 #include <random>
 
-#include "actor/sim/clip_report.h"
+#include "actor/sim/ground_contacts.h"
 #include "actor/sim/motion_io.h"
 
 namespace ragdoll::sim {
@@ -370,10 +370,10 @@ TEST_F(ImitationEnvTest, AutoContactsAreTheBodiesTheClipPutsOnTheFloor) {
   EXPECT_EQ(ClipGroundContacts(*crawl, *character),
             (std::vector<std::string>{"right_knee", "right_ankle", "right_wrist", "left_knee",
                                       "left_ankle", "left_wrist"}));
-  ClipReport report = InspectClip(*crawl, *character);
-  ASSERT_EQ(report.ground_contacts.size(), 4u);
-  EXPECT_EQ(report.ground_contacts[0].first, "right_knee");
-  EXPECT_EQ(report.ground_contacts[0].second, 1.0);  // every frame
+  const auto contacts = GroundContactFractions(*crawl, *character);
+  ASSERT_EQ(contacts.size(), 4u);
+  EXPECT_EQ(contacts[0].first, "right_knee");
+  EXPECT_EQ(contacts[0].second, 1.0);  // every frame
   // The walk puts only its feet down.
   EXPECT_EQ(ClipGroundContacts(*Walk(), *character),
             (std::vector<std::string>{"right_ankle", "left_ankle"}));

@@ -1,4 +1,4 @@
-#include "actor/sim/leg_ik.h"
+#include "motion/leg_ik.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,17 @@
 #include <random>
 #include <vector>
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AngleBetween;
+using sim::Character;
+using sim::DataPtr;
+using sim::DefaultCharacterPath;
+using sim::kIdentityQuat;
+using sim::Normalized;
+using sim::Quat;
+using sim::Vec3;
+
 namespace {
 
 class LegIkTest : public ::testing::Test {
@@ -151,4 +161,4 @@ TEST_F(LegIkTest, RejectsAnotherSide) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

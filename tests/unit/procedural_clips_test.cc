@@ -1,4 +1,4 @@
-#include "actor/sim/procedural_clips.h"
+#include "motion/procedural_clips.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +8,20 @@
 #include "actor/sim/motion_io.h"
 #include "actor/sim/skeleton.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AngleBetween;
+using sim::Character;
+using sim::CharacterJoint;
+using sim::DataPtr;
+using sim::DecomposeHinges;
+using sim::kIdentityQuat;
+using sim::LoadMotion;
+using sim::MotionClip;
+using sim::Pose;
+using sim::Vec3;
+using sim::YawOf;
+
 namespace {
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
@@ -366,4 +379,4 @@ TEST_F(ProceduralClipsTest, WalkStopLeadsFromTheWalkToTheStand) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

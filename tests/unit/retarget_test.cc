@@ -1,4 +1,4 @@
-#include "actor/sim/retarget.h"
+#include "motion/retarget.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,19 @@
 #include "actor/sim/skeleton.h"
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AngleBetween;
+using sim::Character;
+using sim::FindJoint;
+using sim::LoadMotion;
+using sim::MotionClip;
+using sim::Multiply;
+using sim::Pose;
+using sim::Quat;
+using sim::Rotate;
+using sim::Vec3;
+
 namespace {
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
@@ -243,4 +255,4 @@ TEST_F(RetargetTest, ReportsMappingProblems) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

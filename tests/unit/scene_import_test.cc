@@ -1,7 +1,7 @@
 // The scene reader on files written by Assimp's own exporters (FBX binary and ASCII, glTF 2,
 // GLB, COLLADA) from the project's clips on Mixamo- and CMU-named skeletons, and on damaged
 // copies of them.
-#include "actor/sim/scene_import.h"
+#include "motion/scene_import.h"
 #include "actor/sim/skeleton.h"
 
 #include <assimp/scene.h>
@@ -15,12 +15,23 @@
 #include <iterator>
 #include <string>
 
-#include "actor/sim/auto_mapping.h"
 #include "actor/sim/motion_io.h"
-#include "actor/sim/retarget.h"
 #include "common/config_section.h"
+#include "motion/auto_mapping.h"
+#include "motion/retarget.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AngleBetween;
+using sim::Character;
+using sim::FindJoint;
+using sim::Humanoid3dJoints;
+using sim::LoadMotion;
+using sim::MotionClip;
+using sim::Pose;
+using sim::Quat;
+using sim::Vec3;
+
 namespace {
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
@@ -396,4 +407,4 @@ TEST_F(SceneImportTest, FilesWithoutAnimationOrReaderAreRefusedClearly) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

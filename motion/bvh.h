@@ -1,7 +1,7 @@
 // BVH motion capture files as animation tools write them (Blender, Maya, MotionBuilder, the CMU
 // and Mixamo libraries): a joint hierarchy with offsets and per-joint channels in any order, then
 // one line of channel values per frame. Parsing only; retargeting onto the project's character
-// lives in actor/sim/retarget.h.
+// lives in motion/retarget.h.
 #pragma once
 
 #include <string>
@@ -9,14 +9,14 @@
 
 #include "actor/sim/rotation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotation, kZrotation };
 
 struct BvhJoint {
   std::string name;  // "End Site" leaves are named "<parent>_end"
   int parent = -1;   // index into BvhMotion::joints; -1 for the root
-  Vec3 offset = {0, 0, 0};
+  sim::Vec3 offset = {0, 0, 0};
   std::vector<BvhChannel> channels;  // in file order; empty for end sites
   int first_channel = 0;             // index of channels[0] in a frame's values
   bool end_site = false;
@@ -35,10 +35,10 @@ struct BvhMotion {
   int Find(const std::string& name) const;
   // The joint's rotation relative to its parent at a frame: the product of its rotation
   // channels in file order (BVH's convention), degrees converted. Identity without channels.
-  Quat LocalRotation(int frame, int joint) const;
+  sim::Quat LocalRotation(int frame, int joint) const;
   // The joint's translation relative to its parent at a frame: its offset, replaced per axis by
   // any position channels (the root's usually).
-  Vec3 LocalTranslation(int frame, int joint) const;
+  sim::Vec3 LocalTranslation(int frame, int joint) const;
 };
 
 // Parses BVH text; `origin` names it in errors. Throws ConfigError "origin:line: reason" for a
@@ -47,4 +47,4 @@ struct BvhMotion {
 BvhMotion ParseBvh(const std::string& text, const std::string& origin);
 BvhMotion LoadBvh(const std::string& path);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

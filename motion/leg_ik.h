@@ -10,7 +10,7 @@
 #include "actor/sim/character.h"
 #include "actor/sim/rotation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 // How far the solved foot is from its target.
 struct LegIkResult {
@@ -33,7 +33,8 @@ struct LegIkResult {
 // returns the closest pose found and its error. `scratch` is a mjData of the character's model
 // the solver overwrites (nullptr: one is made for the call).
 // Throws std::invalid_argument for another side.
-LegIkResult SolveLegIk(const Character& character, const std::string& side, const Vec3& position,
-                       const Quat& rotation, double* qpos, mjData* scratch = nullptr);
+LegIkResult SolveLegIk(const sim::Character& character, const std::string& side,
+                       const sim::Vec3& position, const sim::Quat& rotation, double* qpos,
+                       mjData* scratch = nullptr);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,4 +1,4 @@
-#include "actor/sim/leg_ik.h"
+#include "motion/leg_ik.h"
 
 #include <algorithm>
 #include <array>
@@ -6,7 +6,17 @@
 #include <stdexcept>
 #include <vector>
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Character;
+using sim::CharacterJoint;
+using sim::Conjugate;
+using sim::DataPtr;
+using sim::Multiply;
+using sim::Normalized;
+using sim::Quat;
+using sim::Vec3;
+
 namespace {
 
 constexpr int kHinges = 7;  // hip (3), knee, ankle (3)
@@ -274,4 +284,4 @@ LegIkResult SolveLegIk(const Character& character, const std::string& side, cons
   return best.result;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,9 +1,9 @@
-// Retargeting skeletal motion (BVH, FBX, glTF, COLLADA: actor/sim/scene_import.h) onto the
+// Retargeting skeletal motion (BVH, FBX, glTF, COLLADA: motion/scene_import.h) onto the
 // project's character, and exporting clips as BVH.
 //
 // Import works on bone directions and rotations, not on joint names alone: each character
 // segment (pelvis, chest, neck, thighs, shins, feet, upper arms, forearms) is driven by one
-// source joint named in a mapping (a file, or found by `--map auto`: actor/sim/auto_mapping.h). The
+// source joint named in a mapping (a file, or found by `--map auto`: motion/auto_mapping.h). The
 // rest poses of the two skeletons are aligned once per segment (bone direction plus a twist
 // reference), so a T-posed mocap skeleton drives the arms-down character correctly; every frame, a
 // segment's world rotation is the BVH joint's world rotation composed with that alignment. BVH
@@ -20,12 +20,12 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/bvh.h"
 #include "actor/sim/character.h"
 #include "actor/sim/motion_clip.h"
-#include "actor/sim/skeleton_animation.h"
+#include "motion/bvh.h"
+#include "motion/skeleton_animation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 // Character parts a mapping names, e.g. "left_knee: LeftLeg".
 const std::vector<std::string>& MappingParts();
@@ -56,9 +56,9 @@ struct ImportOptions {
 // Throws ConfigError naming the file and the problem (no root joint, an unusable rest pose,
 // a bad frame range). Mapped joints the file lacks are reported in `warnings` and stay at rest;
 // decisions worth knowing (the foot alignment found) are reported there too.
-MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
-                    const Character& character, const ImportOptions& options,
-                    std::vector<std::string>* warnings = nullptr);
+sim::MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
+                         const sim::Character& character, const ImportOptions& options,
+                         std::vector<std::string>* warnings = nullptr);
 
 struct ExportOptions {
   std::string rotation_order = "ZXY";  // channel order of every joint's rotation
@@ -68,8 +68,8 @@ struct ExportOptions {
 
 // The clip on the character's skeleton as BVH, joints named by `naming` (e.g. the CMU preset),
 // one frame per clip key frame (the clip's own frame times must be uniform).
-BvhMotion ClipToBvh(const MotionClip& clip, const Character& character, const JointMapping& naming,
-                    const ExportOptions& options);
+BvhMotion ClipToBvh(const sim::MotionClip& clip, const sim::Character& character,
+                    const JointMapping& naming, const ExportOptions& options);
 std::string FormatBvh(const BvhMotion& bvh);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,17 +1,17 @@
 // An animated skeleton as every reader hands it to the retargeter: joints in a hierarchy, where
 // each joint is (world rotation and position) in the file's rest pose and at every frame. BVH
-// files (actor/sim/bvh.h) and the scene formats Assimp reads (FBX, glTF, COLLADA:
-// actor/sim/scene_import.h) both become one of these, so mapping and retargeting never depend
+// files (motion/bvh.h) and the scene formats Assimp reads (FBX, glTF, COLLADA:
+// motion/scene_import.h) both become one of these, so mapping and retargeting never depend
 // on where the motion came from.
 #pragma once
 
 #include <string>
 #include <vector>
 
-#include "actor/sim/bvh.h"
 #include "actor/sim/rotation.h"
+#include "motion/bvh.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 struct AnimatedJoint {
   std::string name;  // as in the file; BVH end sites are "<parent>_end"
@@ -20,8 +20,8 @@ struct AnimatedJoint {
 };
 
 struct JointPose {
-  Quat rotation = kIdentityQuat;  // world frame of the file
-  Vec3 position = {0, 0, 0};      // file units
+  sim::Quat rotation = sim::kIdentityQuat;  // world frame of the file
+  sim::Vec3 position = {0, 0, 0};           // file units
 };
 
 struct SkeletonAnimation {
@@ -41,4 +41,4 @@ struct SkeletonAnimation {
 // A BVH file's skeleton, rest pose (every channel zero) and frames by forward kinematics.
 SkeletonAnimation FromBvh(const BvhMotion& bvh);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -7,8 +7,8 @@
 
 #include "actor/sim/character.h"
 #include "actor/sim/motion_io.h"
-#include "actor/sim/procedural_clips.h"
 #include "common/config_section.h"
+#include "motion/procedural_clips.h"
 
 int main(int argc, char** argv) {
   CLI::App app(
@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
   try {
     auto character = ragdoll::sim::Character::Load(character_path);
     std::filesystem::create_directories(out_dir);
-    for (const auto& authored : ragdoll::sim::AuthorClips(*character)) {
+    for (const auto& authored : ragdoll::motion::AuthorClips(*character)) {
       std::string path = out_dir + "/" + authored.clip.name() + ".json";
       ragdoll::sim::SaveClip(authored.clip, authored.description, path);
       std::cout << path << ": " << authored.clip.num_frames() << " frames, "

@@ -1,4 +1,4 @@
-#include "actor/sim/scene_import.h"
+#include "motion/scene_import.h"
 
 #include <assimp/config.h>
 #include <assimp/scene.h>
@@ -14,7 +14,13 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Normalized;
+using sim::Quat;
+using sim::Slerp;
+using sim::Vec3;
+
 namespace {
 
 // A 4x4 transform in double precision (column vectors: p' = M p).
@@ -223,10 +229,29 @@ class Scene {
     return s;
   }
 
+  using Channels = std::map<const aiNode*, const aiNodeAnim*>;
+
   SkeletonAnimation Sampled(const aiAnimation& anim, std::vector<std::string>* notes) const {
     const std::string label = "animation '" + std::string(anim.mName.C_Str()) + "'";
-    // The nodes it moves, and the smallest subtree holding them all.
-    std::map<const aiNode*, const aiNodeAnim*> channel;
+    const Channels channel = MovedNodes(anim, label, notes);
+    Mat4 above;
+    const aiNode* root = SkeletonRoot(channel, &above);
+    SkeletonAnimation out;
+    out.origin = path_;
+    out.format = FormatName();
+    const std::vector<const aiNode*> nodes = Skeleton(root, channel, &out.joints);
+    const FrameGrid grid = KeyFrameGrid(anim, channel, label, notes);
+    out.frame_time = grid.step / TicksPerSecond(anim);
+    NodeTransforms rest = RestTransforms(nodes);
+    out.rest = RestPose(out.joints, above, rest.local, notes);
+    out.frames = SampleFrames(channel, nodes, out.joints, above, grid, std::move(rest));
+    return out;
+  }
+
+  // The nodes an animation moves, with their channels.
+  Channels MovedNodes(const aiAnimation& anim, const std::string& label,
+                      std::vector<std::string>* notes) const {
+    Channels channel;
     std::vector<std::string> unknown;
     for (unsigned c = 0; c < anim.mNumChannels; ++c) {
       const aiNodeAnim* ch = anim.mChannels[c];
@@ -242,6 +267,12 @@ class Scene {
       notes->push_back(std::to_string(unknown.size()) + " channels name no node (first: '" +
                        unknown.front() + "'): ignored");
     }
+    return channel;
+  }
+
+  // The root of the smallest subtree holding every moved node; `above` receives everything above
+  // it: the file's axis and unit conventions, an armature object.
+  static const aiNode* SkeletonRoot(const Channels& channel, Mat4* above) {
     auto ancestors = [](const aiNode* n) {
       std::vector<const aiNode*> chain;
       for (; n; n = n->mParent) chain.push_back(n);
@@ -255,19 +286,20 @@ class Scene {
       while (k < top.size() && k < chain.size() && top[k] == chain[k]) ++k;
       top.resize(k);
     }
-    const aiNode* root = top.back();
-    // Everything above the skeleton: the file's axis and unit conventions, an armature object.
-    Mat4 above;
     for (size_t k = 0; k + 1 < top.size(); ++k)
-      above = Mul(above, FromAssimp(top[k]->mTransformation));
+      *above = Mul(*above, FromAssimp(top[k]->mTransformation));
+    return top.back();
+  }
 
+  // The skeleton's nodes below `root`, parents first, and their joints. A node belongs to the
+  // skeleton unless nothing in its subtree moves and it holds a mesh, camera or light.
+  std::vector<const aiNode*> Skeleton(const aiNode* root, const Channels& channel,
+                                      std::vector<AnimatedJoint>* joints) const {
     std::set<std::string> other;  // cameras' and lights' nodes
     for (unsigned i = 0; i < scene_->mNumCameras; ++i)
       other.insert(scene_->mCameras[i]->mName.C_Str());
     for (unsigned i = 0; i < scene_->mNumLights; ++i)
       other.insert(scene_->mLights[i]->mName.C_Str());
-    // A node belongs to the skeleton unless nothing in its subtree moves and it holds a mesh,
-    // camera or light.
     std::map<const aiNode*, bool> moves;
     auto mark = [&](auto&& self, const aiNode* n) -> bool {
       bool m = channel.count(n) > 0;
@@ -275,22 +307,28 @@ class Scene {
       return moves[n] = m;
     };
     mark(mark, root);
-
-    SkeletonAnimation out;
-    out.origin = path_;
-    out.format = FormatName();
     std::vector<const aiNode*> nodes;
     auto collect = [&](auto&& self, const aiNode* n, int parent) -> void {
       if (!moves[n] && (n->mNumMeshes > 0 || other.count(n->mName.C_Str()))) return;
       if (nodes.size() >= 100000) throw ConfigError(path_ + ": more than 100000 nodes");
       const int index = static_cast<int>(nodes.size());
       nodes.push_back(n);
-      out.joints.push_back({n->mName.C_Str(), parent, false});
+      joints->push_back({n->mName.C_Str(), parent, false});
       for (unsigned c = 0; c < n->mNumChildren; ++c) self(self, n->mChildren[c], index);
     };
     collect(collect, root, -1);
+    return nodes;
+  }
 
-    // Frame times: the keys' own spacing (the median gap between a channel's keys).
+  // Frame times in ticks: `frames` frames `step` apart from `start`.
+  struct FrameGrid {
+    double start = 0, step = 0;
+    int frames = 0;
+  };
+
+  // Frame times: the keys' own spacing (the median gap between a channel's keys).
+  FrameGrid KeyFrameGrid(const aiAnimation& anim, const Channels& channel, const std::string& label,
+                         std::vector<std::string>* notes) const {
     const double tps = TicksPerSecond(anim);
     std::vector<double> gaps;
     double start = INFINITY, end = -INFINITY;
@@ -335,38 +373,59 @@ class Scene {
     }
     const int frames = static_cast<int>(std::floor(span)) + 1;
     if (frames < 2) throw ConfigError(path_ + ": " + label + " is shorter than two frames");
-    out.frame_time = step / tps;
+    return {start, step, frames};
+  }
 
-    // Rest pose: the nodes' own transforms.
-    auto world = [&](const std::vector<Mat4>& local) {
-      std::vector<Mat4> w(local.size());
-      std::vector<JointPose> poses(local.size());
-      for (size_t j = 0; j < local.size(); ++j) {
-        const int parent = out.joints[j].parent;
-        w[j] = Mul(parent < 0 ? above : w[parent], local[j]);
-        if (!IsFinite(w[j])) {
-          throw ConfigError(path_ + ": node '" + out.joints[j].name +
-                            "' has a transform that is not finite");
-        }
-        poses[j] = PoseOf(w[j]);
-      }
-      return poses;
-    };
-    std::vector<Mat4> local(nodes.size());
-    std::vector<Vec3> rest_t(nodes.size()), rest_s(nodes.size());
-    std::vector<Quat> rest_r(nodes.size());
+  // Each node's own transform, as a matrix and decomposed: what a channel without keys of a kind
+  // keeps.
+  struct NodeTransforms {
+    std::vector<Mat4> local;
+    std::vector<Vec3> translation, scaling;
+    std::vector<Quat> rotation;
+  };
+
+  static NodeTransforms RestTransforms(const std::vector<const aiNode*>& nodes) {
+    NodeTransforms rest;
+    rest.local.resize(nodes.size());
+    rest.translation.resize(nodes.size());
+    rest.scaling.resize(nodes.size());
+    rest.rotation.resize(nodes.size());
     for (size_t j = 0; j < nodes.size(); ++j) {
-      local[j] = FromAssimp(nodes[j]->mTransformation);
+      rest.local[j] = FromAssimp(nodes[j]->mTransformation);
       aiVector3D s, t;
       aiQuaternion r;
       nodes[j]->mTransformation.Decompose(s, r, t);
-      rest_t[j] = {t.x, t.y, t.z};
-      rest_s[j] = {s.x, s.y, s.z};
-      rest_r[j] = Normalized({r.w, r.x, r.y, r.z});
+      rest.translation[j] = {t.x, t.y, t.z};
+      rest.scaling[j] = {s.x, s.y, s.z};
+      rest.rotation[j] = Normalized({r.w, r.x, r.y, r.z});
     }
-    // Skinned meshes carry each bone's bind pose (the inverse of its offset matrix, in the mesh's
-    // space): the pose the skeleton was built in, which node transforms need not be (Blender
-    // writes the pose of the frame it exports from). Where there is one it is the rest pose.
+    return rest;
+  }
+
+  // The joints' world poses for their local transforms.
+  std::vector<JointPose> WorldPoses(const std::vector<AnimatedJoint>& joints, const Mat4& above,
+                                    const std::vector<Mat4>& local) const {
+    std::vector<Mat4> w(local.size());
+    std::vector<JointPose> poses(local.size());
+    for (size_t j = 0; j < local.size(); ++j) {
+      const int parent = joints[j].parent;
+      w[j] = Mul(parent < 0 ? above : w[parent], local[j]);
+      if (!IsFinite(w[j])) {
+        throw ConfigError(path_ + ": node '" + joints[j].name +
+                          "' has a transform that is not finite");
+      }
+      poses[j] = PoseOf(w[j]);
+    }
+    return poses;
+  }
+
+  // Rest pose: the nodes' own transforms. Skinned meshes carry each bone's bind pose (the inverse
+  // of its offset matrix, in the mesh's space): the pose the skeleton was built in, which node
+  // transforms need not be (Blender writes the pose of the frame it exports from). Where there is
+  // one it is the rest pose.
+  std::vector<JointPose> RestPose(const std::vector<AnimatedJoint>& joints, const Mat4& above,
+                                  const std::vector<Mat4>& local,
+                                  std::vector<std::string>* notes) const {
     std::map<std::string, Mat4> bind;
     for (unsigned i = 0; i < scene_->mNumMeshes; ++i) {
       const aiMesh* mesh = scene_->mMeshes[i];
@@ -383,11 +442,11 @@ class Scene {
         if (IsFinite(m)) bind.emplace(mesh->mBones[b]->mName.C_Str(), m);
       }
     }
-    std::vector<Mat4> rest_world(nodes.size());
+    std::vector<Mat4> rest_world(joints.size());
     int bound = 0;
-    for (size_t j = 0; j < nodes.size(); ++j) {
-      const int parent = out.joints[j].parent;
-      auto it = bind.find(out.joints[j].name);
+    for (size_t j = 0; j < joints.size(); ++j) {
+      const int parent = joints[j].parent;
+      auto it = bind.find(joints[j].name);
       if (it != bind.end()) {
         rest_world[j] = it->second;
         ++bound;
@@ -395,30 +454,42 @@ class Scene {
         rest_world[j] = Mul(parent < 0 ? above : rest_world[parent], local[j]);
       }
     }
-    if (bound > 0) {
-      for (size_t j = 0; j < nodes.size(); ++j) out.rest.push_back(PoseOf(rest_world[j]));
-      if (notes) {
-        notes->push_back("rest pose: the skinned mesh's bind pose (" + std::to_string(bound) +
-                         " of " + std::to_string(nodes.size()) + " joints)");
-      }
-    } else {
-      out.rest = world(local);
+    if (bound == 0) return WorldPoses(joints, above, local);
+    std::vector<JointPose> rest;
+    for (size_t j = 0; j < joints.size(); ++j) rest.push_back(PoseOf(rest_world[j]));
+    if (notes) {
+      notes->push_back("rest pose: the skinned mesh's bind pose (" + std::to_string(bound) +
+                       " of " + std::to_string(joints.size()) + " joints)");
     }
-    out.frames.reserve(frames);
-    for (int f = 0; f < frames; ++f) {
-      const double t = start + f * step;
+    return rest;
+  }
+
+  // The world poses at every frame of `grid`: moved nodes take their channels' keys, the others
+  // stay as in the rest pose.
+  std::vector<std::vector<JointPose>> SampleFrames(const Channels& channel,
+                                                   const std::vector<const aiNode*>& nodes,
+                                                   const std::vector<AnimatedJoint>& joints,
+                                                   const Mat4& above, const FrameGrid& grid,
+                                                   NodeTransforms rest) const {
+    std::vector<std::vector<JointPose>> frames;
+    frames.reserve(grid.frames);
+    std::vector<Mat4>& local = rest.local;
+    for (int f = 0; f < grid.frames; ++f) {
+      const double t = grid.start + f * grid.step;
       for (size_t j = 0; j < nodes.size(); ++j) {
         auto it = channel.find(nodes[j]);
-        if (it == channel.end()) continue;  // stays as in the rest pose
+        if (it == channel.end()) continue;
         const aiNodeAnim& ch = *it->second;
-        Vec3 position = Sample(ch.mPositionKeys, ch.mNumPositionKeys, t, rest_t[j], LerpVec);
-        Quat rotation = Sample(ch.mRotationKeys, ch.mNumRotationKeys, t, rest_r[j], SlerpQuat);
-        Vec3 scale = Sample(ch.mScalingKeys, ch.mNumScalingKeys, t, rest_s[j], LerpVec);
+        Vec3 position =
+            Sample(ch.mPositionKeys, ch.mNumPositionKeys, t, rest.translation[j], LerpVec);
+        Quat rotation =
+            Sample(ch.mRotationKeys, ch.mNumRotationKeys, t, rest.rotation[j], SlerpQuat);
+        Vec3 scale = Sample(ch.mScalingKeys, ch.mNumScalingKeys, t, rest.scaling[j], LerpVec);
         local[j] = Compose(position, rotation, scale);
       }
-      out.frames.push_back(world(local));
+      frames.push_back(WorldPoses(joints, above, local));
     }
-    return out;
+    return frames;
   }
 
   // The first node that draws mesh `index`, or nullptr.
@@ -470,4 +541,4 @@ SkeletonAnimation LoadSkeletonAnimation(const std::string& path, const std::stri
   return Scene(path).Load(animation, notes);
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

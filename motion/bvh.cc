@@ -1,4 +1,4 @@
-#include "actor/sim/bvh.h"
+#include "motion/bvh.h"
 
 #include <cctype>
 #include <cerrno>
@@ -9,7 +9,14 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AxisAngle;
+using sim::Multiply;
+using sim::Normalized;
+using sim::Quat;
+using sim::Vec3;
+
 namespace {
 
 constexpr double kDegrees = M_PI / 180.0;
@@ -336,4 +343,4 @@ BvhMotion LoadBvh(const std::string& path) {
   return ParseBvh(text.str(), path);
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,6 +1,6 @@
 // Foot clean-up of an imported clip (`ragdoll motion import --fix-feet`): the frames where a
 // foot is planted are found from the clip itself, and in them the leg is re-solved (leg IK,
-// actor/sim/leg_ik.h) so that the foot's lowest point is on the floor and the ankle holds still,
+// motion/leg_ik.h) so that the foot's lowest point is on the floor and the ankle holds still,
 // the foot keeping its own rotation (`--feet floor` levels it); the correction fades in and out
 // around each plant. Where a leg cannot reach, the pelvis comes down (smoothly) until it can.
 // Everything above the legs is left as it was.
@@ -15,7 +15,7 @@
 #include "actor/sim/character.h"
 #include "actor/sim/motion_clip.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 struct FootCleanupOptions {
   // A foot is planted in a frame when its lowest point is within `plant_height` of the lowest
@@ -40,7 +40,7 @@ struct FootCleanupReport {
 
 // The clip with its feet fixed; `report` (optional) says what was done. The clip's floor is
 // z = 0. Throws std::invalid_argument for options that are not positive.
-MotionClip FixFeet(const MotionClip& clip, const Character& character,
-                   const FootCleanupOptions& options, FootCleanupReport* report = nullptr);
+sim::MotionClip FixFeet(const sim::MotionClip& clip, const sim::Character& character,
+                        const FootCleanupOptions& options, FootCleanupReport* report = nullptr);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,4 +1,4 @@
-#include "actor/sim/clip_report.h"
+#include "motion/clip_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,13 +7,23 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "actor/sim/ground_contacts.h"
 #include "actor/sim/skeleton.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Character;
+using sim::DataPtr;
+using sim::DecomposeHinges;
+using sim::GeomLowestPoint;
+using sim::Humanoid3dJoints;
+using sim::MotionClip;
+using sim::Pose;
+using sim::Vec3;
+
 namespace {
 
 constexpr double kPenetration = 0.01;     // m below the floor
-constexpr double kContactHeight = 0.02;   // m above the floor
 constexpr double kSlidingSpeed = 0.3;     // m/s of a planted foot's lowest point
 constexpr double kPlanted = 0.005;        // m: a corner this close to the floor bears weight
 constexpr double kLimitTolerance = 0.05;  // rad beyond a hinge's range
@@ -70,7 +80,6 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
     }
   }
   std::map<std::string, int> contact_frames;
-  std::vector<int> body_contact_frames(m->nbody, 0);
   // Per foot: the previous frame's corners and which corner was lowest, if it was in contact.
   std::map<std::string, std::array<Vec3, 8>> previous_corners;
   std::map<std::string, int> previous_lowest;
@@ -104,18 +113,15 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
     mj_kinematics(m, d.get());
     double lowest = INFINITY;
     int lowest_body = 0;
-    std::vector<char> touches(m->nbody, 0);
     for (int g = 0; g < m->ngeom; ++g) {
       if (m->geom_bodyid[g] == 0) continue;
       double z = GeomLowestPoint(m, d.get(), g);
-      if (z < kContactHeight) touches[m->geom_bodyid[g]] = 1;
       if (z < lowest) {
         lowest = z;
         lowest_body = m->geom_bodyid[g];
       }
     }
     r.lowest_point = std::min(r.lowest_point, lowest);
-    for (int b = 0; b < m->nbody; ++b) body_contact_frames[b] += touches[b];
     if (lowest < -kPenetration) {
       char detail[160];
       std::snprintf(detail, sizeof(detail), "%s %.1f cm below the floor",
@@ -136,7 +142,7 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
           }
         }
       }
-      const bool contact = foot_lowest < kContactHeight;
+      const bool contact = foot_lowest < sim::kGroundContactHeight;
       if (contact) ++contact_frames[side];
       if (contact && previous_lowest.count(side) && f > 0) {
         // The corner that was lowest (planted) last frame: how fast did it move?
@@ -162,28 +168,10 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
   }
   r.contact_right = static_cast<double>(contact_frames["right_ankle"]) / r.frames;
   r.contact_left = static_cast<double>(contact_frames["left_ankle"]) / r.frames;
-  for (int b : character.bodies()) {
-    if (body_contact_frames[b] > 0) {
-      r.ground_contacts.emplace_back(mj_id2name(m, mjOBJ_BODY, b),
-                                     static_cast<double>(body_contact_frames[b]) / r.frames);
-    }
-  }
+  r.ground_contacts = sim::GroundContactFractions(clip, character);
   r.renormalized_rotations = clip.renormalized_rotations();
   r.max_norm_deviation = clip.max_norm_deviation();
   return r;
-}
-
-std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Character& character) {
-  ClipReport report = InspectClip(clip, character);
-  std::vector<std::string> bodies;
-  for (int b : character.bodies()) {
-    const std::string name = mj_id2name(character.model(), mjOBJ_BODY, b);
-    bool feet = name == "right_ankle" || name == "left_ankle";
-    bool touches = std::any_of(report.ground_contacts.begin(), report.ground_contacts.end(),
-                               [&](const auto& c) { return c.first == name; });
-    if (feet || touches) bodies.push_back(name);
-  }
-  return bodies;
 }
 
 std::string ClipReport::ToText() const {
@@ -269,4 +257,4 @@ std::string ClipReport::ToJson() const {
   return j.dump(2);
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

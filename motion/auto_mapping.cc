@@ -1,4 +1,4 @@
-#include "actor/sim/auto_mapping.h"
+#include "motion/auto_mapping.h"
 
 #include <algorithm>
 #include <cctype>
@@ -8,7 +8,10 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Vec3;
+
 namespace {
 
 enum Side { kNoSide = -1, kRight = 0, kLeft = 1 };
@@ -531,4 +534,4 @@ JointMapping ResolveMapping(const std::string& preset_or_path, const SkeletonAni
   return automatic.mapping;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,4 +1,4 @@
-#include "actor/sim/procedural_clips.h"
+#include "motion/procedural_clips.h"
 
 #include <algorithm>
 #include <array>
@@ -7,13 +7,24 @@
 #include <functional>
 #include <stdexcept>
 
-#include "actor/sim/leg_ik.h"
+#include "motion/leg_ik.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::AxisAngle;
+using sim::Character;
+using sim::DataPtr;
+using sim::MotionClip;
+using sim::Multiply;
+using sim::Pose;
+using sim::Quat;
+using sim::Vec3;
+
 namespace {
 
 // Key frames per second. The walk uses more: its legs move fast enough that interpolating
-// joint rotations between 30 fps key frames lets a planted sole dip 7 mm into the floor.
+// joint rotations between 30 fps key frames lets a planted sole dip into the floor
+// (docs/motion-import.md, "Authored clips").
 constexpr double kFps = 30;
 constexpr double kWalkFps = 60;
 
@@ -235,9 +246,8 @@ struct Gait {
 
 // The worst a foot may miss its target by before authoring gives up. The gaits are designed
 // within the legs' reach, except around the walk's heel strike, which the start and stop clips
-// share with the walk: there the target is 1.5 mm beyond a straight leg on the floor, and about
-// a centimetre in the last tenth of the swing before it (the shipped walk's legs stop short
-// there too).
+// share with the walk: there the target lies just beyond a straight leg (docs/motion-import.md,
+// "Authored clips").
 constexpr double kMaxPlantedMiss = 0.002;  // m
 constexpr double kMaxSwingMiss = 0.015;    // m
 constexpr double kMaxMissAngle = 0.01;     // rad
@@ -424,8 +434,8 @@ std::array<std::vector<Foothold>, 2> WalkFootholds(
   return holds;
 }
 
-// The height of the ankle joints in the stand clip's pose: 0.17 mm above kAnkleHeight, as
-// SetLeg keeps a leg at most 99.9 % straight. The clips that start or end standing stand so.
+// The height of the ankle joints in the stand clip's pose: a little above kAnkleHeight, as
+// SetLeg never straightens a leg fully. The clips that start or end standing stand so.
 double StandAnkleHeight(const Character& character) {
   const mjModel* m = character.model();
   Frame f;
@@ -453,23 +463,21 @@ double RampDistance(double v, double T, double u) {
   return v * T * (u * u / 2 + (std::cos(2 * M_PI * u) - 1) / (4 * M_PI * M_PI));
 }
 
-}  // namespace
-
-std::vector<AuthoredClip> AuthorClips(const Character& character) {
-  std::vector<AuthoredClip> clips;
-
-  // stand: a relaxed upright pose held still; the task is balance alone.
+// stand: a relaxed upright pose held still; the task is balance alone.
+AuthoredClip StandClip(const Character& character) {
   auto stand_pose = [](double) {
     Frame f;
     f.root_position[2] = SetStandingLegs(&f, kStandKnee);
     SetRestArms(&f, 0.12, 0.15);
     return f;
   };
-  clips.push_back({Build(character, "stand", 2.0, kFps, {0, 0, 0}, stand_pose),
-                   "Standing still, knees slightly bent, arms relaxed (static balance)."});
+  return {Build(character, "stand", 2.0, kFps, {0, 0, 0}, stand_pose),
+          "Standing still, knees slightly bent, arms relaxed (static balance)."};
+}
 
-  // arms: legs as in stand; the arms rise sideways to shoulder height and fall, one after the
-  // other, elbows waving.
+// arms: legs as in stand; the arms rise sideways to shoulder height and fall, one after the
+// other, elbows waving.
+AuthoredClip ArmsClip(const Character& character) {
   auto arms_pose = [](double phase) {
     Frame f;
     f.root_position[2] = SetStandingLegs(&f, 0.08);
@@ -480,12 +488,14 @@ std::vector<AuthoredClip> AuthorClips(const Character& character) {
     f.Set("left_elbow", 0.15 + 0.9 * Bump(2 * phase + 0.5));
     return f;
   };
-  clips.push_back({Build(character, "arms", 4.0, kFps, {0, 0, 0}, arms_pose),
-                   "Arm wave: each arm rises sideways to shoulder height and back, elbows "
-                   "bending, half a cycle apart; legs still."});
+  return {Build(character, "arms", 4.0, kFps, {0, 0, 0}, arms_pose),
+          "Arm wave: each arm rises sideways to shoulder height and back, elbows "
+          "bending, half a cycle apart; legs still."};
+}
 
-  // squat: down to about 90 degrees of knee flexion and back up, feet flat and still; the
-  // pelvis moves back and the trunk and arms forward so the centre of mass stays over the feet.
+// squat: down to about 90 degrees of knee flexion and back up, feet flat and still; the
+// pelvis moves back and the trunk and arms forward so the centre of mass stays over the feet.
+AuthoredClip SquatClip(const Character& character) {
   auto squat_pose = [](double phase) {
     Frame f;
     double depth = Bump(phase);
@@ -510,16 +520,18 @@ std::vector<AuthoredClip> AuthorClips(const Character& character) {
     f.Set("left_elbow", 0.15);
     return f;
   };
-  clips.push_back({Build(character, "squat", 4.0, kFps, {0, 0, 0}, squat_pose),
-                   "Squat: down to about 90 degrees of knee flexion and back up over 4 s, feet "
-                   "flat, arms reaching forward for balance."});
+  return {Build(character, "squat", 4.0, kFps, {0, 0, 0}, squat_pose),
+          "Squat: down to about 90 degrees of knee flexion and back up over 4 s, feet "
+          "flat, arms reaching forward for balance."};
+}
 
-  // walk: 0.9 m strides at one stride per second. Each foot is on the floor for 60 % of the
-  // cycle (two 10 % double-support phases): flat until 45 %, then the heel rises and the foot
-  // rolls over its toe edge, which stays put, to 20 degrees at toe-off. It swings along a smooth
-  // arc 7 cm high and lands flat. The pelvis moves forward at constant speed and bobs 3 cm,
-  // highest at mid-stance. Feet stay under the hips, so leg inverse kinematics in the sagittal
-  // plane is exact and a foot on the floor does not slide.
+// walk: 0.9 m strides at one stride per second. Each foot is on the floor for 60 % of the
+// cycle (two 10 % double-support phases): flat until 45 %, then the heel rises and the foot
+// rolls over its toe edge, which stays put, to 20 degrees at toe-off. It swings along a smooth
+// arc 7 cm high and lands flat. The pelvis moves forward at constant speed and bobs 3 cm,
+// highest at mid-stance. Feet stay under the hips, so leg inverse kinematics in the sagittal
+// plane is exact and a foot on the floor does not slide.
+AuthoredClip WalkClip(const Character& character) {
   struct Foot {
     double x, z, pitch;  // ankle joint position and foot pitch (toes down > 0)
   };
@@ -561,55 +573,64 @@ std::vector<AuthoredClip> AuthorClips(const Character& character) {
     for (const auto& [hinge, angle] : WalkUpperBody(phase).angles) f.Set(hinge, angle);
     return f;
   };
-  clips.push_back({Build(character, "walk", kWalkCycle, kWalkFps, {kWalkStride, 0, 0}, walk_pose),
-                   "Walk: 0.9 m strides at 1 stride/s (0.9 m/s), 60 % stance per foot with heel "
-                   "rise onto the toes, planted feet still, arms swinging against the legs."});
+  return {Build(character, "walk", kWalkCycle, kWalkFps, {kWalkStride, 0, 0}, walk_pose),
+          "Walk: 0.9 m strides at 1 stride/s (0.9 m/s), 60 % stance per foot with heel "
+          "rise onto the toes, planted feet still, arms swinging against the legs."};
+}
 
-  // The motion set of a steerable character: the gaits below share one generator (the pelvis
-  // on an arc, each foot planted where the pelvis is at its mid-stance, legs by inverse
-  // kinematics), at the walk's 60 key frames a second.
+// The motion set of a steerable character: the gaits below share one generator (the pelvis on an
+// arc, each foot planted where the pelvis is at its mid-stance, legs by inverse kinematics), at
+// the walk's 60 key frames a second.
+
+// walk_backward: 0.5 m strides at one stride per second, flat-footed, arms swinging gently.
+AuthoredClip WalkBackwardClip(const Character& character) {
   const double hips = HipOffset(character);
-
-  // walk_backward: 0.5 m strides at one stride per second, flat-footed, arms swinging gently.
   SteadyGait backward;
   backward.cycle = 1.0;
   backward.dx = -0.5;
   backward.width = hips;
   backward.arm_swing = 0.6;
-  clips.push_back({BuildGait(character, "walk_backward", MakeSteadyGait(backward), 1.0, true),
-                   "Backward walk: 0.5 m strides at 1 stride/s (0.5 m/s), 60 % stance per "
-                   "foot, flat-footed steps 5 cm high, planted feet still, arms swinging gently "
-                   "against the legs."});
+  return {BuildGait(character, "walk_backward", MakeSteadyGait(backward), 1.0, true),
+          "Backward walk: 0.5 m strides at 1 stride/s (0.5 m/s), 60 % stance per "
+          "foot, flat-footed steps 5 cm high, planted feet still, arms swinging gently "
+          "against the legs."};
+}
 
-  // strafe_left: side steps to the left at 0.4 m/s, facing forward. Both feet step 0.32 m per
-  // 0.8 s cycle; a stance 15 cm to each side of the pelvis keeps the closing foot 14 cm from the
-  // other when they are nearest.
+// strafe_left: side steps to the left at 0.4 m/s, facing forward. Both feet step 0.32 m per
+// 0.8 s cycle; a stance 15 cm to each side of the pelvis keeps the closing foot 14 cm from the
+// other when they are nearest.
+AuthoredClip StrafeLeftClip(const Character& character) {
   SteadyGait strafe;
   strafe.cycle = 0.8;
   strafe.dy = 0.32;
   strafe.width = 0.15;
   strafe.pelvis_height = 0.85;
-  clips.push_back({BuildGait(character, "strafe_left", MakeSteadyGait(strafe), 0.8, true),
-                   "Side steps to the left: 0.32 m per 0.8 s cycle (0.4 m/s), facing forward, "
-                   "legs stepping apart and together, feet parallel, 60 % stance per foot."});
+  return {BuildGait(character, "strafe_left", MakeSteadyGait(strafe), 0.8, true),
+          "Side steps to the left: 0.32 m per 0.8 s cycle (0.4 m/s), facing forward, "
+          "legs stepping apart and together, feet parallel, 60 % stance per foot."};
+}
 
-  // turn_left: stepping in place while turning counter-clockwise, 90 degrees per 1.5 s cycle;
-  // each foot is planted turned to the pelvis's heading at its mid-stance.
+// turn_left: stepping in place while turning counter-clockwise, 90 degrees per 1.5 s cycle;
+// each foot is planted turned to the pelvis's heading at its mid-stance.
+AuthoredClip TurnLeftClip(const Character& character) {
   SteadyGait turn;
   turn.cycle = 1.5;
   turn.turn = M_PI / 2;
   turn.width = 0.12;
   turn.bob = 0.005;
   turn.arm_swing = 0.6;
-  clips.push_back({BuildGait(character, "turn_left", MakeSteadyGait(turn), 1.5, true),
-                   "Turning left on the spot: 90 degrees counter-clockwise per 1.5 s cycle "
-                   "(60 deg/s), stepping in place onto footholds turned with the pelvis, 60 % "
-                   "stance per foot, the root staying over the same point."});
+  return {BuildGait(character, "turn_left", MakeSteadyGait(turn), 1.5, true),
+          "Turning left on the spot: 90 degrees counter-clockwise per 1.5 s cycle "
+          "(60 deg/s), stepping in place onto footholds turned with the pelvis, 60 % "
+          "stance per foot, the root staying over the same point."};
+}
 
-  // walk_start: from the stand clip's pose into the walk. The pelvis speeds up smoothly to
-  // walking speed over 0.9 s, lowering to walking height in the first 0.5 s; the right foot
-  // steps first, half a stride, the left follows with a nearly full one. The clip ends 1.2 s
-  // in, at walk phase 0.6 (the right toe-off), in the walk's pose at the walk's speed.
+// walk_start: from the stand clip's pose into the walk. The pelvis speeds up smoothly to
+// walking speed over 0.9 s, lowering to walking height in the first 0.5 s; the right foot
+// steps first, half a stride, the left follows with a nearly full one. The clip ends 1.2 s
+// in, at walk phase 0.6 (the right toe-off), in the walk's pose at the walk's speed.
+AuthoredClip WalkStartClip(const Character& character) {
+  const double hips = HipOffset(character);
   constexpr double kStartPhase = 0.4, kAccelerate = 0.9, kLower = 0.5;
   const double stand_height = StandHeight();
   Gait start;
@@ -630,17 +651,22 @@ std::vector<AuthoredClip> AuthorClips(const Character& character) {
   start.upper_body = [start_speed](double t, const std::array<FootPose, 2>&) {
     return Blend(StandUpperBody(), WalkUpperBody(kStartPhase + t), start_speed(t));
   };
-  clips.push_back({BuildGait(character, "walk_start", start, 1.2, false),
-                   "Starting to walk: from the stand pose (stand's first frame), speeding up "
-                   "smoothly to the walk's 0.9 m/s over 0.9 s, right foot first with a half "
-                   "stride; ends at 1.2 s in the walk's pose at walk phase 0.6 (walk.json frame "
-                   "36, the right toe-off)."});
+  return {BuildGait(character, "walk_start", start, 1.2, false),
+          "Starting to walk: from the stand pose (stand's first frame), speeding up "
+          "smoothly to the walk's 0.9 m/s over 0.9 s, right foot first with a half "
+          "stride; ends at 1.2 s in the walk's pose at walk phase 0.6 (walk.json frame "
+          "36, the right toe-off)."};
+}
 
-  // walk_stop: from the walk at phase 0.6 (the right toe-off) to the stand pose. The pelvis
-  // keeps walking speed for 0.2 s, so that the first frame is the walk's, then slows down
-  // smoothly over 1 s to a stop 0.63 m from where it started; the left foot lands under it, the
-  // right short of it and closes up beside the left with a small last step, and the pelvis rises
-  // to standing height over the last 0.6 s. The clip ends at 1.5 s in the stand clip's pose.
+// walk_stop: from the walk at phase 0.6 (the right toe-off) to the stand pose. The pelvis
+// keeps walking speed for 0.2 s, so that the first frame is the walk's, then slows down
+// smoothly over 1 s to a stop 0.63 m from where it started; the left foot lands under it, the
+// right short of it and closes up beside the left with a small last step, and the pelvis rises
+// to standing height over the last 0.6 s. The clip ends at 1.5 s in the stand clip's pose.
+AuthoredClip WalkStopClip(const Character& character) {
+  const double hips = HipOffset(character);
+  const double stand_height = StandHeight();
+  const double stand_ankle = StandAnkleHeight(character);
   constexpr double kStopPhase = 0.6, kKeep = 0.2, kDecelerate = 1.0, kRaise = 0.6;
   constexpr double kStopLength = 1.5;
   Gait stop;
@@ -663,12 +689,19 @@ std::vector<AuthoredClip> AuthorClips(const Character& character) {
   stop.upper_body = [stop_speed](double t, const std::array<FootPose, 2>&) {
     return Blend(StandUpperBody(), WalkUpperBody(kStopPhase + t), stop_speed(t));
   };
-  clips.push_back({BuildGait(character, "walk_stop", stop, kStopLength, false),
-                   "Stopping from the walk: starts in the walk's pose at walk phase 0.6 "
-                   "(walk.json frame 36, the right toe-off) at 0.9 m/s, slows down smoothly to "
-                   "a stop 0.63 m on within 1.2 s, the right foot closing up beside the left; "
-                   "ends at 1.5 s in the stand pose."});
-  return clips;
+  return {BuildGait(character, "walk_stop", stop, kStopLength, false),
+          "Stopping from the walk: starts in the walk's pose at walk phase 0.6 "
+          "(walk.json frame 36, the right toe-off) at 0.9 m/s, slows down smoothly to "
+          "a stop 0.63 m on within 1.2 s, the right foot closing up beside the left; "
+          "ends at 1.5 s in the stand pose."};
 }
 
-}  // namespace ragdoll::sim
+}  // namespace
+
+std::vector<AuthoredClip> AuthorClips(const Character& character) {
+  return {StandClip(character),    ArmsClip(character),         SquatClip(character),
+          WalkClip(character),     WalkBackwardClip(character), StrafeLeftClip(character),
+          TurnLeftClip(character), WalkStartClip(character),    WalkStopClip(character)};
+}
+
+}  // namespace ragdoll::motion

@@ -14,10 +14,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/retarget.h"
-#include "actor/sim/skeleton_animation.h"
+#include "motion/retarget.h"
+#include "motion/skeleton_animation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 struct AutoMapping {
   JointMapping mapping;            // origin "auto (<scheme>)"
@@ -38,4 +38,4 @@ JointMapping ResolveMapping(const std::string& preset_or_path, const SkeletonAni
 // "Bip01 L Thigh" -> bip01 l thigh, "thigh.L" -> thigh l, "LHipJoint" -> l hip joint.
 std::vector<std::string> NameWords(const std::string& name);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

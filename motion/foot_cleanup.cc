@@ -1,4 +1,4 @@
-#include "actor/sim/foot_cleanup.h"
+#include "motion/foot_cleanup.h"
 
 #include <algorithm>
 #include <array>
@@ -7,10 +7,21 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/leg_ik.h"
 #include "actor/sim/skeleton.h"
+#include "motion/leg_ik.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::Character;
+using sim::DataPtr;
+using sim::FindJoint;
+using sim::GeomLowestPoint;
+using sim::MotionClip;
+using sim::Pose;
+using sim::Quat;
+using sim::Rotate;
+using sim::Vec3;
+
 namespace {
 
 constexpr const char* kSides[2] = {"right", "left"};
@@ -292,4 +303,4 @@ MotionClip FixFeet(const MotionClip& clip, const Character& character,
                     clip.cycle_transform());
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,5 +1,5 @@
 // Reading skeletal animation from the files animation tools write: BVH with the project's parser
-// (actor/sim/bvh.h), and through Assimp the scene formats FBX (binary and ASCII, Mixamo's
+// (motion/bvh.h), and through Assimp the scene formats FBX (binary and ASCII, Mixamo's
 // downloads), glTF 2 (.gltf, .glb) and COLLADA (.dae). A scene's skeleton is the smallest subtree
 // holding every node the animation moves; its rest pose is the nodes' own transforms. Meshes
 // (skinned or not), cameras and lights are ignored, with a note.
@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/skeleton_animation.h"
+#include "motion/skeleton_animation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 struct AnimationInfo {
   std::string name;
@@ -34,4 +34,4 @@ SkeletonAnimation LoadSkeletonAnimation(const std::string& path, const std::stri
                                         std::vector<std::string>* notes = nullptr,
                                         BvhReader bvh_reader = BvhReader::kRagdoll);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -10,10 +10,10 @@
 #include "actor/sim/character.h"
 #include "actor/sim/motion_clip.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
 
 struct AuthoredClip {
-  MotionClip clip;
+  sim::MotionClip clip;
   std::string description;
 };
 
@@ -32,6 +32,6 @@ struct AuthoredClip {
 // SolveLegIk for the others) so that planted feet stay flat and still on the floor. Throws
 // std::logic_error if a foot of the gaits could not be placed (a change that puts it out of the
 // leg's reach).
-std::vector<AuthoredClip> AuthorClips(const Character& character);
+std::vector<AuthoredClip> AuthorClips(const sim::Character& character);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

@@ -1,6 +1,14 @@
-#include "actor/sim/skeleton_animation.h"
+#include "motion/skeleton_animation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::motion {
+
+using sim::kIdentityQuat;
+using sim::Multiply;
+using sim::Normalized;
+using sim::Quat;
+using sim::Rotate;
+using sim::Vec3;
+
 namespace {
 
 std::string Bare(const std::string& name) { return name.substr(name.rfind(':') + 1); }
@@ -55,4 +63,4 @@ SkeletonAnimation FromBvh(const BvhMotion& bvh) {
   return animation;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::motion

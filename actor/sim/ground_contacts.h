@@ -1,0 +1,26 @@
+// Where a clip puts the character on the floor: `allowed_contacts: auto` lets those bodies touch
+// the ground without ending the episode (a crawl's hands and knees, a walk's feet).
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "actor/sim/character.h"
+#include "actor/sim/motion_clip.h"
+
+namespace ragdoll::sim {
+
+// A body touches the floor when some geom of it comes within this height of it, in metres.
+inline constexpr double kGroundContactHeight = 0.02;
+
+// Every body whose geometry comes within kGroundContactHeight of the floor in some key frame of
+// `clip`, in skeleton order, with the fraction of frames it does.
+std::vector<std::pair<std::string, double>> GroundContactFractions(const MotionClip& clip,
+                                                                   const Character& character);
+
+// The bodies that may touch the ground while imitating `clip` (`allowed_contacts: auto`): the
+// feet, and every body the clip itself puts on the floor (GroundContactFractions).
+std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Character& character);
+
+}  // namespace ragdoll::sim
