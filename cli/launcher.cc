@@ -13,6 +13,8 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -22,6 +24,19 @@
 namespace ragdoll::cli {
 namespace fs = std::filesystem;
 namespace {
+
+struct TrainOptions {
+  std::string config;
+  std::string run_id;  // default: <config name>-<date>-<time>
+  std::string runs_dir = "runs";
+  bool resume = false;
+  std::string init_from;
+  int actors = 0;  // 0: from the config (actors.count), else cores - 1
+  int port_base = 0;
+  int replicas = 0;       // learner replicas; 0: from the config (learner.replicas)
+  std::string keys;       // CURVE keys folder for every role; empty: the config's security.keys
+  bool insecure = false;  // let the broker listen beyond loopback without keys
+};
 
 // Whether a TCP port can be bound on this machine's loopback (nothing else listens there).
 bool PortFree(int port) {
@@ -86,8 +101,6 @@ void Stop(std::vector<Child>& children, const std::string& role, double seconds)
     }
   }
 }
-
-}  // namespace
 
 int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
   Experiment e = ReadExperiment(options.config, options.port_base);
@@ -251,6 +264,29 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
   Stop(children, "broker", 10);
   std::fprintf(stderr, "ragdoll train: stopped; run folder %s\n", run_dir.c_str());
   return exit_code;
+}
+
+}  // namespace
+
+std::function<int()> AddTrainCommand(CLI::App& app, const std::atomic<bool>& stop) {
+  auto o = std::make_shared<TrainOptions>();
+  auto* cmd = app.add_subcommand("train", "broker, learner and actors on this machine");
+  cmd->add_option("config", o->config, "experiment YAML (configs/*.yaml)")->required();
+  cmd->add_option("--run-id", o->run_id, "run name (default: config name and time)");
+  cmd->add_option("--runs-dir", o->runs_dir, "where run folders go")->capture_default_str();
+  cmd->add_flag("--resume", o->resume, "continue the run --run-id from its checkpoint");
+  cmd->add_option("--init-from", o->init_from, "start from another run's weights");
+  cmd->add_option("--actors", o->actors, "actor processes (default: cores - 1)");
+  cmd->add_option("--port-base", o->port_base, "use ports PORT_BASE..PORT_BASE+4");
+  cmd->add_option("--replicas", o->replicas,
+                  "learner replicas (default: the config's learner.replicas)");
+  cmd->add_option("--keys", o->keys,
+                  "CURVE keys folder (`ragdoll keygen`; default: security.keys)");
+  cmd->add_flag("--insecure", o->insecure, "let the broker listen beyond loopback without keys");
+  return [cmd, o, &stop]() -> int {
+    if (!*cmd) return -1;
+    return RunTrain(*o, stop);
+  };
 }
 
 }  // namespace ragdoll::cli
