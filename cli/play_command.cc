@@ -13,8 +13,8 @@
 #include <thread>
 #include <vector>
 
-#include "actor/render/renderer.h"
 #include "actor/rollout.h"
+#include "cli/render/renderer.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 
