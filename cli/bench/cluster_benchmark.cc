@@ -377,7 +377,7 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 // A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
 // (0: more than it can take). Trained samples/s and the stale-drop fraction. Replica i runs on
 // learner_cores[i*threads .. (i+1)*threads - 1] (--pin); with none given, anywhere.
-nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
+nlohmann::json BenchLearner(const std::string& ragdoll, const cli::Experiment& e,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
                             int replicas, double rate, int senders,
                             const std::vector<int>& learner_cores) {
@@ -386,17 +386,10 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
   fs::remove_all(dir);
   fs::create_directories(dir);
   // The experiment with this thread count and nothing else changed (no checkpoints meanwhile).
-  YAML::Node node = YAML::LoadFile(config);
+  YAML::Node node = YAML::Clone(e.tree);
   node["trainer"]["threads"] = threads;
   node["trainer"]["max_steps"] = 1e12;
   node["trainer"]["checkpoint_interval"] = 1e12;
-  const fs::path base = fs::path(config).parent_path();
-  for (const char* key : {"motion", "character"}) {
-    if (node["environment"][key]) {
-      node["environment"][key] =
-          fs::absolute(base / node["environment"][key].as<std::string>()).string();
-    }
-  }
   const fs::path bench_config = dir / "bench.yaml";
   {
     YAML::Emitter emitter;
@@ -429,7 +422,7 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
   zmq::context_t context(2);
   Replay replay(context, ports.endpoints, rec, senders, rate);
   // Warm up: two updates done, so the group has formed and the first update's set-up is past.
-  const double buffer = node["trainer"]["hyperparameters"]["buffer_size"].as<double>(20000);
+  const double buffer = e.trainer.buffer_size;
   if (!WaitFor(120, [&] { return trained() >= 2 * buffer; })) {
     out["error"] = "the learner group trained nothing within 120 s";
     return out;
@@ -546,7 +539,7 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 // train on, so they may absorb more than they train flooded), down by 15 % while it fails, then
 // once halfway between the last pass and the first failure. The figure is the best absorption
 // among the runs that passed.
-nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
+nlohmann::json Absorption(const std::string& ragdoll, const cli::Experiment& e,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
                           int replicas, int senders, const std::vector<int>& learner_cores,
                           const nlohmann::json& flood, double lowest_start) {
@@ -560,7 +553,7 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                0.95 * run["offered_samples_per_s"].get<double>();
   };
   auto offer = [&](double rate) {
-    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
+    return BenchLearner(ragdoll, e, rec, ports, seconds, threads, replicas, rate, senders,
                         learner_cores);
   };
   // A run's absorption is what was both offered and trained: a run may also train a
@@ -733,8 +726,8 @@ int main(int argc, char** argv) {
       for (const auto& group : groups) {
         const int threads = group.first;
         const int replicas = group.second;
-        nlohmann::json flood = BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                            0, senders, learner_cores);
+        nlohmann::json flood = BenchLearner(ragdoll, e, rec, ports, seconds, threads, replicas, 0,
+                                            senders, learner_cores);
         if (flood.contains("error")) {
           std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
                       flood["error"].get<std::string>().c_str());
@@ -744,8 +737,8 @@ int main(int argc, char** argv) {
         // A replica group's search starts no lower than 77 % (0.9 x 0.85) of linear scaling of
         // this round's one replica.
         const double lowest_start = replicas > 1 ? 0.9 * 0.85 * replicas * one_replica : 0;
-        nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                        senders, learner_cores, flood, lowest_start);
+        nlohmann::json run = Absorption(ragdoll, e, rec, ports, seconds, threads, replicas, senders,
+                                        learner_cores, flood, lowest_start);
         run["round"] = round;
         const nlohmann::json& paced = run["paced"];
         const double flooded = flood["trained_samples_per_s"].get<double>();
