@@ -223,8 +223,8 @@ class Replay {
             }
           }
           if (per_thread > 0) {
-            // Asleep until this thread's next segment is due: the replay costs the learners
-            // under test little CPU (0.01-0.02 core at 5 000-10 000 samples/s).
+            // Asleep until this thread's next segment is due, so that the replay takes little
+            // of the learners' CPU (docs/learner-scaling.md has the figure).
             const double due = sent * segment_samples / per_thread;
             if (due > Since(start)) {
               std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
@@ -244,8 +244,8 @@ class Replay {
             offered_.fetch_add(1);
           } else {
             // Flooding, the learners' queues are full (the broker reads only what they can
-            // take): wait until there is room or a snapshot comes. Retrying every 0.1 ms instead
-            // cost 0.24 cores of the learners' two.
+            // take): wait until there is room or a snapshot comes, since retrying spins on the
+            // learners' cores (docs/learner-scaling.md).
             zmq::pollitem_t items[] = {{push.handle(), 0, ZMQ_POLLOUT, 0},
                                        {snapshots.handle(), 0, ZMQ_POLLIN, 0}};
             zmq::poll(items, 2, std::chrono::milliseconds(50));
@@ -428,8 +428,8 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const cli::Experiment& e
     return out;
   }
   // The window runs from one update's landing to another's, so that it holds whole updates
-  // only (an update is 2-3 s of 15-20: counting from a moment in between would be off by up to
-  // one update's samples).
+  // only: an update is a large part of the window, and counting from a moment in between would
+  // be off by up to one update's samples.
   auto next_landing = [&](double after) {
     WaitFor(60, [&] { return trained() > after; });
     return Clock::now();
@@ -715,10 +715,9 @@ void PrintMedians(const Rounds& rounds, nlohmann::json& result) {
   }
 }
 
-// Each learner group flooded, then its absorption searched. With --repeats N the groups run in
-// turn N times (1, 2, 1, 2, ...), so that each replica group's ratio to one replica compares runs
-// minutes apart, not a whole search apart: the machines these figures come from drift by 15 %
-// within an hour.
+// Each learner group flooded, then its absorption searched; --repeats rounds of all groups in
+// turn (1, 2, 1, 2, ...), so that a replica group's ratio to one replica compares runs minutes
+// apart, not a whole search apart: the machines drift within an hour (docs/learner-scaling.md).
 void LearnerFigures(const BenchOptions& o, const cli::Experiment& e, const Recording& rec,
                     const Ports& ports, const std::vector<int>& learner_cores,
                     nlohmann::json& result) {
