@@ -70,23 +70,23 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
 
   // The effective configuration: the file with its paths made absolute and the contacts
   // resolved, so that it still works from the run folder (evaluation reads it from there).
-  YAML::Node node = YAML::LoadFile(path);
+  e.tree = root.Clone();
   if (e.environment.steering.enabled()) {
-    YAML::Node items = node["environment"]["steering"]["motions"];
+    YAML::Node items = e.tree["environment"]["steering"]["motions"];
     for (size_t i = 0; i < e.environment.steering.motions.size(); ++i) {
       items[i]["motion"] =
           std::filesystem::absolute(e.environment.steering.motions[i].motion).string();
     }
   } else {
-    node["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
+    e.tree["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
   }
-  node["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
+  e.tree["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
   YAML::Node contacts(YAML::NodeType::Sequence);
   for (const auto& body : e.environment.allowed_contacts) contacts.push_back(body);
   contacts.SetStyle(YAML::EmitterStyle::Flow);
-  node["environment"]["allowed_contacts"] = contacts;
+  e.tree["environment"]["allowed_contacts"] = contacts;
   YAML::Emitter out;
-  out << node;
+  out << e.tree;
   e.text = std::string(out.c_str()) + "\n";
   return e;
 }

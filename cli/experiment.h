@@ -2,6 +2,8 @@
 // validated at start-up by every role, so a typo stops all of them with the same message.
 #pragma once
 
+#include <yaml-cpp/yaml.h>
+
 #include <string>
 
 #include "actor/actor_process.h"
@@ -17,6 +19,7 @@ struct Experiment {
   std::string path;  // the file
   std::string name;  // its stem: the default run-id prefix and progress label
   std::string text;  // the effective configuration (YAML, paths made absolute)
+  YAML::Node tree;   // the same, parsed: clone it to write a variant without reading a file again
   sim::EnvConfig environment;
   learner::TrainerConfig trainer;
   learner::ReplicaSettings learner;  // the `learner:` section

@@ -13,6 +13,8 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -22,6 +24,19 @@
 namespace ragdoll::cli {
 namespace fs = std::filesystem;
 namespace {
+
+struct TrainOptions {
+  std::string config;
+  std::string run_id;  // default: <config name>-<date>-<time>
+  std::string runs_dir = "runs";
+  bool resume = false;
+  std::string init_from;
+  int actors = 0;  // 0: from the config (actors.count), else cores - 1
+  int port_base = 0;
+  int replicas = 0;       // learner replicas; 0: from the config (learner.replicas)
+  std::string keys;       // CURVE keys folder for every role; empty: the config's security.keys
+  bool insecure = false;  // let the broker listen beyond loopback without keys
+};
 
 // Whether a TCP port can be bound on this machine's loopback (nothing else listens there).
 bool PortFree(int port) {
@@ -87,33 +102,207 @@ void Stop(std::vector<Child>& children, const std::string& role, double seconds)
   }
 }
 
-}  // namespace
-
-int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
-  Experiment e = ReadExperiment(options.config, options.port_base);
-  // Refuse before anything starts (the broker would, too).
-  const std::string keys = options.keys.empty() ? e.keys_dir : options.keys;
-  e.broker.endpoints.curve = LoadCurve(keys, "broker");
-  CheckTransportSecurity(e.broker.endpoints, options.insecure);
-  // Another run on this machine holds the ports: its broker would take this run's learner and
-  // actors (their run ids keep the data apart, but nothing would train). Say so before starting.
-  const Endpoints& ports = e.broker.endpoints;
-  for (int port : {ports.trajectory_port, ports.control_port, ports.snapshot_port,
-                   ports.learner_port, ports.learner_snapshot_port}) {
+// Refuses before anything starts: a broker beyond loopback without keys (the broker would, too),
+// and ports another run on this machine holds (its broker would take this run's learner and
+// actors; their run ids keep the data apart, but nothing would train).
+void CheckBeforeStart(Endpoints& endpoints, const std::string& keys, bool insecure) {
+  endpoints.curve = LoadCurve(keys, "broker");
+  CheckTransportSecurity(endpoints, insecure);
+  for (int port : {endpoints.trajectory_port, endpoints.control_port, endpoints.snapshot_port,
+                   endpoints.learner_port, endpoints.learner_snapshot_port}) {
     if (!PortFree(port)) {
       throw ConfigError("ragdoll train: port " + std::to_string(port) +
                         " is in use (another training on this machine?); give this run its own "
                         "ports with --port-base, e.g. --port-base " +
-                        std::to_string(ports.trajectory_port + 100));
+                        std::to_string(endpoints.trajectory_port + 100));
     }
   }
-  const std::string run_id = options.run_id.empty() ? DefaultRunId(e.name) : options.run_id;
+}
+
+// The run folder with the effective configuration in it.
+fs::path MakeRunFolder(const TrainOptions& options, const std::string& run_id,
+                       const Experiment& e) {
   const fs::path run_dir = fs::path(options.runs_dir) / run_id;
   fs::create_directories(run_dir);
-  {
-    std::ofstream out(run_dir / "config.yaml");
-    out << e.text;
+  std::ofstream out(run_dir / "config.yaml");
+  out << e.text;
+  return run_dir;
+}
+
+// The children of one run: started, watched (a failed broker or learner group restarted a few
+// times), and stopped in order.
+class Supervisor {
+ public:
+  Supervisor(const TrainOptions& options, const std::string& run_id, fs::path run_dir, int replicas)
+      : options_(options), run_dir_(std::move(run_dir)), replicas_(replicas) {
+    common_ = {options.config, "--run-id", run_id};
+    if (!options.keys.empty()) common_.insert(common_.end(), {"--keys", options.keys});
+    if (options.port_base > 0) {
+      common_.push_back("--port-base");
+      common_.push_back(std::to_string(options.port_base));
+    }
   }
+
+  void LaunchBroker() {
+    Launch("broker", Args("broker", options_.insecure ? std::vector<std::string>{"--insecure"}
+                                                      : std::vector<std::string>{}));
+  }
+
+  // The learner, or a group of replicas that the broker ranks. A replica that fails breaks the
+  // group: the others stop, and the whole group restarts from the last checkpoint.
+  void LaunchLearners(bool resume) {
+    for (int i = 0; i < replicas_; ++i) {
+      std::vector<std::string> extra = {"--run-dir", run_dir_.string()};
+      if (resume) extra.push_back("--resume");
+      if (!resume && !options_.init_from.empty()) {
+        extra.push_back("--init-from");
+        extra.push_back(options_.init_from);
+      }
+      if (replicas_ > 1) {
+        extra.insert(extra.end(),
+                     {"--replicas", std::to_string(replicas_), "--index", std::to_string(i)});
+      }
+      Launch(replicas_ > 1 ? "learner-" + std::to_string(i) : "learner", Args("learner", extra));
+    }
+  }
+
+  void LaunchActor(int index) {
+    Launch("actor-" + std::to_string(index), Args("actor", {"--index", std::to_string(index)}));
+  }
+
+  // Waits on the children until `stop` or the learner's end; the run's exit code.
+  int Watch(const std::atomic<bool>& stop) {
+    while (!stop.load()) {
+      int status = 0;
+      pid_t pid = waitpid(-1, &status, WNOHANG);
+      if (pid <= 0) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        continue;
+      }
+      const Exit ended = Reap(pid, status, stop);
+      if (ended.broker_failed) {
+        if (!RestartBroker()) return 1;
+        continue;
+      }
+      if (ended.group_broke) {
+        if (!RestartLearners()) return 1;
+        continue;
+      }
+      bool learner_running = false;
+      for (const auto& c : children_) {
+        learner_running |= c.role.rfind("learner", 0) == 0 && c.running;
+      }
+      if (!learner_running) break;
+    }
+    return exit_code_;
+  }
+
+  // Actors first (nothing to save), then the learner (final checkpoint), then the broker.
+  void StopAll() {
+    Stop(children_, "actor", 10);
+    Stop(children_, "learner", 60);
+    Stop(children_, "broker", 10);
+  }
+
+ private:
+  static constexpr int kMaxRestarts = 5;
+
+  // What a child's exit asks of the run.
+  struct Exit {
+    bool group_broke = false, broker_failed = false;
+  };
+
+  // `ragdoll ROLE CONFIG --run-id ID [--keys] [--port-base]`, then `extra`.
+  std::vector<std::string> Args(const std::string& role, std::vector<std::string> extra) const {
+    std::vector<std::string> a = {"ragdoll", role};
+    a.insert(a.end(), common_.begin(), common_.end());
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  }
+
+  void Launch(const std::string& role, const std::vector<std::string>& args) {
+    Child c;
+    c.role = role;
+    c.pid = Spawn(args);
+    c.running = c.pid > 0;
+    children_.push_back(c);
+  }
+
+  // Records the exit of `pid` and says what it means: a failed single learner fails the run.
+  Exit Reap(pid_t pid, int status, const std::atomic<bool>& stop) {
+    Exit ended;
+    for (auto& c : children_) {
+      if (c.pid != pid) continue;
+      c.running = false;
+      c.status = status;
+      bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      if (c.role.rfind("learner", 0) == 0) {
+        if (!ok && replicas_ > 1 && !stop.load()) {
+          ended.group_broke = true;
+          std::fprintf(stderr, "ragdoll train: %s failed (%s)\n", c.role.c_str(),
+                       WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit");
+        } else if (!ok) {
+          exit_code_ = 1;
+          std::fprintf(stderr, "ragdoll train: the learner failed\n");
+        }
+      } else {
+        std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
+                     WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
+                     c.role == "broker" ? "" : "; training continues with the others");
+        // Without its broker nothing trains, and the others would wait on it forever.
+        if (c.role == "broker" && !stop.load()) ended.broker_failed = true;
+      }
+    }
+    return ended;
+  }
+
+  // Actors and learner reconnect to a restarted broker on their own (the chaos test shows it);
+  // a broker that cannot stay up stops the run (false).
+  bool RestartBroker() {
+    if (broker_restarts_ == kMaxRestarts) {
+      std::fprintf(stderr, "ragdoll train: the broker stopped %d times; giving up\n",
+                   kMaxRestarts + 1);
+      return false;
+    }
+    ++broker_restarts_;
+    std::fprintf(stderr, "ragdoll train: restarting the broker (restart %d of at most %d)\n",
+                 broker_restarts_, kMaxRestarts);
+    LaunchBroker();
+    return true;
+  }
+
+  // The whole group again from the last checkpoint; false when it broke too often.
+  bool RestartLearners() {
+    if (group_restarts_ == kMaxRestarts) {
+      std::fprintf(stderr, "ragdoll train: the learner group broke %d times; giving up\n",
+                   kMaxRestarts + 1);
+      return false;
+    }
+    ++group_restarts_;
+    Stop(children_, "learner", 60);
+    std::fprintf(stderr,
+                 "ragdoll train: restarting the %d learner replicas from the last checkpoint "
+                 "(restart %d of at most %d)\n",
+                 replicas_, group_restarts_, kMaxRestarts);
+    LaunchLearners(true);
+    return true;
+  }
+
+  const TrainOptions& options_;
+  const fs::path run_dir_;
+  const int replicas_;
+  std::vector<std::string> common_;  // the options every role gets
+  std::vector<Child> children_;
+  int exit_code_ = 0;
+  int group_restarts_ = 0, broker_restarts_ = 0;
+};
+
+int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
+  Experiment e = ReadExperiment(options.config, options.port_base);
+  const std::string keys = options.keys.empty() ? e.keys_dir : options.keys;
+  CheckBeforeStart(e.broker.endpoints, keys, options.insecure);
+  const std::string run_id = options.run_id.empty() ? DefaultRunId(e.name) : options.run_id;
+  const fs::path run_dir = MakeRunFolder(options, run_id, e);
   std::string contacts;
   for (const auto& body : e.environment.allowed_contacts) contacts += " " + body;
   std::fprintf(stderr, "ragdoll train: bodies allowed on the ground (%s):%s\n",
@@ -132,125 +321,37 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
       e.broker.endpoints.Bind(e.broker.endpoints.trajectory_port).c_str(),
       e.broker.endpoints.curve.enabled() ? ("CURVE keys from " + keys).c_str() : "plaintext");
 
-  std::vector<std::string> common = {options.config, "--run-id", run_id};
-  if (!options.keys.empty()) common.insert(common.end(), {"--keys", options.keys});
-  if (options.port_base > 0) {
-    common.push_back("--port-base");
-    common.push_back(std::to_string(options.port_base));
-  }
-  auto args = [&common](const std::string& role, std::vector<std::string> extra) {
-    std::vector<std::string> a = {"ragdoll", role};
-    a.insert(a.end(), common.begin(), common.end());
-    a.insert(a.end(), extra.begin(), extra.end());
-    return a;
-  };
-  std::vector<Child> children;
-  auto launch = [&children](const std::string& role, const std::vector<std::string>& a) {
-    Child c;
-    c.role = role;
-    c.pid = Spawn(a);
-    c.running = c.pid > 0;
-    children.push_back(c);
-  };
-  launch("broker", args("broker", options.insecure ? std::vector<std::string>{"--insecure"}
-                                                   : std::vector<std::string>{}));
-  // The learner, or a group of replicas that the broker ranks. A replica that fails breaks the
-  // group: the others stop, and the whole group restarts from the last checkpoint.
-  auto launch_learners = [&](bool resume) {
-    for (int i = 0; i < replicas; ++i) {
-      std::vector<std::string> extra = {"--run-dir", run_dir.string()};
-      if (resume) extra.push_back("--resume");
-      if (!resume && !options.init_from.empty()) {
-        extra.push_back("--init-from");
-        extra.push_back(options.init_from);
-      }
-      if (replicas > 1) {
-        extra.insert(extra.end(),
-                     {"--replicas", std::to_string(replicas), "--index", std::to_string(i)});
-      }
-      launch(replicas > 1 ? "learner-" + std::to_string(i) : "learner", args("learner", extra));
-    }
-  };
-  launch_learners(options.resume);
-  for (int i = 0; i < actors; ++i) {
-    launch("actor-" + std::to_string(i), args("actor", {"--index", std::to_string(i)}));
-  }
-
-  int exit_code = 0;
-  int group_restarts = 0, broker_restarts = 0;
-  const int kMaxGroupRestarts = 5;
-  while (!stop.load()) {
-    int status = 0;
-    pid_t pid = waitpid(-1, &status, WNOHANG);
-    if (pid <= 0) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      continue;
-    }
-    bool group_broke = false, broker_failed = false;
-    for (auto& c : children) {
-      if (c.pid != pid) continue;
-      c.running = false;
-      c.status = status;
-      bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-      if (c.role.rfind("learner", 0) == 0) {
-        if (!ok && replicas > 1 && !stop.load()) {
-          group_broke = true;
-          std::fprintf(stderr, "ragdoll train: %s failed (%s)\n", c.role.c_str(),
-                       WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit");
-        } else if (!ok) {
-          exit_code = 1;
-          std::fprintf(stderr, "ragdoll train: the learner failed\n");
-        }
-      } else {
-        std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
-                     WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
-                     c.role == "broker" ? "" : "; training continues with the others");
-        // Without its broker nothing trains, and the others would wait on it forever.
-        if (c.role == "broker" && !stop.load()) broker_failed = true;
-      }
-    }
-    if (broker_failed) {
-      // Actors and learner reconnect to a restarted broker on their own (the chaos test shows
-      // it); a broker that cannot stay up stops the run.
-      if (broker_restarts == kMaxGroupRestarts) {
-        std::fprintf(stderr, "ragdoll train: the broker stopped %d times; giving up\n",
-                     kMaxGroupRestarts + 1);
-        exit_code = 1;
-        break;
-      }
-      ++broker_restarts;
-      std::fprintf(stderr, "ragdoll train: restarting the broker (restart %d of at most %d)\n",
-                   broker_restarts, kMaxGroupRestarts);
-      launch("broker", args("broker", options.insecure ? std::vector<std::string>{"--insecure"}
-                                                       : std::vector<std::string>{}));
-      continue;
-    }
-    if (group_broke) {
-      if (group_restarts == kMaxGroupRestarts) {
-        std::fprintf(stderr, "ragdoll train: the learner group broke %d times; giving up\n",
-                     kMaxGroupRestarts + 1);
-        exit_code = 1;
-        break;
-      }
-      ++group_restarts;
-      Stop(children, "learner", 60);
-      std::fprintf(stderr,
-                   "ragdoll train: restarting the %d learner replicas from the last checkpoint "
-                   "(restart %d of at most %d)\n",
-                   replicas, group_restarts, kMaxGroupRestarts);
-      launch_learners(true);
-      continue;
-    }
-    bool learner_running = false;
-    for (const auto& c : children) learner_running |= c.role.rfind("learner", 0) == 0 && c.running;
-    if (!learner_running) break;
-  }
-  // Actors first (nothing to save), then the learner (final checkpoint), then the broker.
-  Stop(children, "actor", 10);
-  Stop(children, "learner", 60);
-  Stop(children, "broker", 10);
+  Supervisor children(options, run_id, run_dir, replicas);
+  children.LaunchBroker();
+  children.LaunchLearners(options.resume);
+  for (int i = 0; i < actors; ++i) children.LaunchActor(i);
+  const int exit_code = children.Watch(stop);
+  children.StopAll();
   std::fprintf(stderr, "ragdoll train: stopped; run folder %s\n", run_dir.c_str());
   return exit_code;
+}
+
+}  // namespace
+
+std::function<int()> AddTrainCommand(CLI::App& app, const std::atomic<bool>& stop) {
+  auto o = std::make_shared<TrainOptions>();
+  auto* cmd = app.add_subcommand("train", "broker, learner and actors on this machine");
+  cmd->add_option("config", o->config, "experiment YAML (configs/*.yaml)")->required();
+  cmd->add_option("--run-id", o->run_id, "run name (default: config name and time)");
+  cmd->add_option("--runs-dir", o->runs_dir, "where run folders go")->capture_default_str();
+  cmd->add_flag("--resume", o->resume, "continue the run --run-id from its checkpoint");
+  cmd->add_option("--init-from", o->init_from, "start from another run's weights");
+  cmd->add_option("--actors", o->actors, "actor processes (default: cores - 1)");
+  cmd->add_option("--port-base", o->port_base, "use ports PORT_BASE..PORT_BASE+4");
+  cmd->add_option("--replicas", o->replicas,
+                  "learner replicas (default: the config's learner.replicas)");
+  cmd->add_option("--keys", o->keys,
+                  "CURVE keys folder (`ragdoll keygen`; default: security.keys)");
+  cmd->add_flag("--insecure", o->insecure, "let the broker listen beyond loopback without keys");
+  return [cmd, o, &stop]() -> int {
+    if (!*cmd) return -1;
+    return RunTrain(*o, stop);
+  };
 }
 
 }  // namespace ragdoll::cli

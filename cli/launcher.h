@@ -1,26 +1,17 @@
-// `ragdoll train`: one broker, one learner and N actors as child processes of this binary on
-// loopback; stops them all (the learner last but one, so it writes a final checkpoint) on
+// `ragdoll train CONFIG`: one broker, one learner and N actors as child processes of this binary
+// on loopback; stops them all (the learner last but one, so it writes a final checkpoint) on
 // Ctrl-C or when the learner finishes.
 #pragma once
 
+#include <CLI/CLI.hpp>
+
 #include <atomic>
-#include <string>
+#include <functional>
 
 namespace ragdoll::cli {
 
-struct TrainOptions {
-  std::string config;
-  std::string run_id;  // default: <config name>-<date>-<time>
-  std::string runs_dir = "runs";
-  bool resume = false;
-  std::string init_from;
-  int actors = 0;  // 0: from the config (actors.count), else cores - 1
-  int port_base = 0;
-  int replicas = 0;       // learner replicas; 0: from the config (learner.replicas)
-  std::string keys;       // CURVE keys folder for every role; empty: the config's security.keys
-  bool insecure = false;  // let the broker listen beyond loopback without keys
-};
-
-int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop);
+// Adds `train` to `app`; the callback runs it until `stop` (SIGINT, SIGTERM) or the learner's end
+// (exit code), or returns -1 when not chosen.
+std::function<int()> AddTrainCommand(CLI::App& app, const std::atomic<bool>& stop);
 
 }  // namespace ragdoll::cli

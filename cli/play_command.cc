@@ -13,8 +13,8 @@
 #include <thread>
 #include <vector>
 
-#include "actor/render/renderer.h"
 #include "actor/rollout.h"
+#include "cli/render/renderer.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 
@@ -75,8 +75,247 @@ struct FileCloser {
   void operator()(std::FILE* f) const { std::fclose(f); }
 };
 
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// --log FILE with its header line; none without the option.
+std::unique_ptr<std::FILE, FileCloser> OpenLog(const std::string& path) {
+  std::unique_ptr<std::FILE, FileCloser> log;
+  if (path.empty()) return log;
+  log.reset(std::fopen(path.c_str(), "w"));
+  if (!log) throw ConfigError("play: --log " + path + ": cannot write the file");
+  std::fprintf(log.get(),
+               "time,wall,episode,command,reference,x,y,heading,desired_heading,vx,vy,"
+               "speed_error,heading_error,fell\n");
+  return log;
+}
+
+// A session: one environment stepped by the trained policy in real time, steered by the keys,
+// drawn when there is time.
+class PlaySession {
+ public:
+  PlaySession(const PlayOptions& o, const TrainedPolicy& policy, const sim::EnvConfig& env)
+      : o_(o),
+        policy_version_(policy.version),
+        dt_(env.control_dt()),
+        push_ticks_total_(std::max(1, static_cast<int>(std::lround(o.push_duration / dt_)))),
+        worker_(env, 1, 1, o.seed, "play"),
+        e_(worker_.environment(0)),
+        motions_(e_.motion_set()),
+        model_(e_.character().model()),
+        root_(e_.character().root_body()),
+        log_(OpenLog(o.log)),
+        renderer_(model_, o.view, "ragdoll play: " + o.target,
+                  [this](int key, bool pressed) { keys_.Handle(key, pressed); }),
+        reference_(mj_makeData(model_)),
+        reference_qvel_(model_->nv),
+        rng_(o.seed) {
+    worker_.SetPolicy(policy.snapshot);
+    command_ = motions_.Nearest(KeyCommand(keys_));
+    worker_.SetCommandFirst(command_);
+    worker_.ResetFirst(uniform_(rng_));
+  }
+
+  // Runs until `stop`, Esc, the window's closing or --seconds; prints the summary.
+  void Run(const std::atomic<bool>& stop) {
+    // The first frame compiles OpenGL programs (half a second in software): the clock starts
+    // after.
+    Draw();
+    start_ = Clock::now();
+    double due = 0;  // when the next control step is due, wall seconds from the start
+    while (!stop.load() && !keys_.quit && renderer_.PollEvents()) {
+      const double now = SecondsSince(start_);
+      if (o_.seconds > 0 && now >= o_.seconds) break;
+      if (now < due) {
+        std::this_thread::sleep_for(std::chrono::duration<double>(due - now));
+        continue;
+      }
+      if (now - due > kMaxLag) {
+        lost_ += now - due;
+        due = now;
+      }
+      ControlStep();
+      due += dt_;
+      MeasureWindow(now);
+      // Draw only when the next step is not due yet: a late frame is skipped, not the simulation.
+      if (SecondsSince(start_) < due) {
+        Draw();
+      } else {
+        ++skipped_;
+      }
+    }
+    PrintSummary(SecondsSince(start_));
+  }
+
+ private:
+  // Further behind than this, the simulation stops catching up (it runs slower than real time
+  // on this machine) rather than stepping in a burst the player would see as a jump.
+  static constexpr double kMaxLag = 0.25;
+
+  void Reset() {
+    worker_.ResetFirst(uniform_(rng_));
+    ++episode_;
+    push_ticks_ = 0;
+    pause_left_ = 0;
+  }
+
+  // One control step: the keys, then the simulation (or the fall still on screen).
+  void ControlStep() {
+    if (keys_.reset) Reset();
+    keys_.reset = false;
+    if (pause_left_ > 0) {
+      pause_left_ -= dt_;
+      if (pause_left_ <= 0) Reset();
+    } else {
+      Steer();
+      Simulate();
+    }
+    keys_.push = false;
+    ++ticks_;
+    ++window_ticks_;
+  }
+
+  // The command the held keys ask for, and a push when space was pressed.
+  void Steer() {
+    const int wanted = motions_.Nearest(KeyCommand(keys_));
+    if (wanted != command_) {
+      command_ = wanted;
+      worker_.SetCommandFirst(command_);
+    }
+    if (keys_.push) {
+      const double direction = 2 * M_PI * uniform_(rng_);
+      e_.SetExternalForce(
+          root_, {o_.push_force * std::cos(direction), o_.push_force * std::sin(direction), 0});
+      push_angle_ = sim::WrapAngle(direction - e_.heading());
+      push_ticks_ = push_ticks_total_;
+      ++pushes_;
+    }
+  }
+
+  // The policy's step, the push's end, the log line, and a fall's pause or a new episode.
+  void Simulate() {
+    const auto begin = Clock::now();
+    const sim::StepResult r = worker_.StepFirst(true);
+    step_seconds_ += SecondsSince(begin);
+    ++steps_;
+    if (push_ticks_ > 0 && --push_ticks_ == 0) e_.SetExternalForce(root_, {0, 0, 0});
+    if (log_) LogStep(r);
+    if (r.terminated) {
+      ++falls_;
+      std::fprintf(stderr, "play: fell (%s) after %.1f s; restarting\n",
+                   sim::EpisodeEndName(e_.episode().end), e_.episode_time());
+      pause_left_ = o_.fall_pause;
+      push_ticks_ = 0;
+      if (pause_left_ <= 0) Reset();
+    } else if (r.truncated) {
+      Reset();
+    }
+  }
+
+  void LogStep(const sim::StepResult& r) {
+    const sim::Vec3 v = e_.TravelVelocity();
+    std::fprintf(log_.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n",
+                 (ticks_ + 1) * dt_, SecondsSince(start_), episode_,
+                 motions_.entry(command_).name.c_str(),
+                 motions_.entry(e_.reference_entry()).name.c_str(), e_.data().qpos[0],
+                 e_.data().qpos[1], e_.heading(), e_.desired_heading(), v[0], v[1], e_.SpeedError(),
+                 e_.HeadingError(), r.terminated ? 1 : 0);
+  }
+
+  // The heads-up figures, over the last second.
+  void MeasureWindow(double now) {
+    if (now - window_start_ < 1.0) return;
+    fps_ = window_frames_ / (now - window_start_);
+    realtime_ = window_ticks_ * dt_ / (now - window_start_);
+    window_start_ = now;
+    window_frames_ = window_ticks_ = 0;
+  }
+
+  std::string Hud() const {
+    const sim::Vec3 v = e_.TravelVelocity();
+    std::string name = motions_.entry(command_).name;
+    const std::string& clip = motions_.entry(e_.reference_entry()).name;
+    if (clip != name) name += " via " + clip;  // a transition clip plays
+    char text[512];
+    std::snprintf(text, sizeof(text),
+                  "command %s\nspeed %.2f m/s\nheading %.0f deg, desired %.0f deg\npolicy v%lld",
+                  name.c_str(), std::hypot(v[0], v[1]), Degrees(e_.heading()),
+                  Degrees(e_.desired_heading()), static_cast<long long>(policy_version_));
+    std::string caption = text;
+    if (window_start_ > 0) {  // measured over a second at least
+      std::snprintf(text, sizeof(text), "\n%.0f fps, real time x%.2f", fps_, realtime_);
+      caption += text;
+    }
+    if (pause_left_ > 0) {
+      caption += "\nfell: restarting";
+    } else if (push_ticks_ > 0) {
+      std::snprintf(text, sizeof(text), "\npush %.0f N at %+.0f deg from facing", o_.push_force,
+                    Degrees(push_angle_));
+      caption += text;
+    }
+    return caption;
+  }
+
+  void Draw() {
+    const mjData* ghost = nullptr;
+    if (o_.ghost == "overlay") {
+      e_.ReferenceState(e_.time(), reference_->qpos, reference_qvel_.data());
+      mj_kinematics(model_, reference_.get());
+      ghost = reference_.get();
+    }
+    const auto begin = Clock::now();
+    renderer_.Draw(e_.data(), ghost, Hud(), kHelp);
+    draw_seconds_ += SecondsSince(begin);
+    ++frames_;
+    ++window_frames_;
+  }
+
+  void PrintSummary(double wall) const {
+    std::fprintf(stderr,
+                 "play: %.1f s in %.1f s: real-time factor %.2f, %.1f frames/s (%lld skipped), "
+                 "%lld control steps (%.1f ms each), %.1f ms a frame, %d fall%s, %d push%s, "
+                 "%.1f s lost behind real time\n",
+                 ticks_ * dt_, wall, ticks_ * dt_ / std::max(wall, 1e-9),
+                 frames_ / std::max(wall, 1e-9), static_cast<long long>(skipped_),
+                 static_cast<long long>(steps_),
+                 1000 * step_seconds_ / std::max<int64_t>(steps_, 1),
+                 1000 * draw_seconds_ / std::max<int64_t>(frames_, 1), falls_,
+                 falls_ == 1 ? "" : "s", pushes_, pushes_ == 1 ? "" : "es", lost_);
+  }
+
+  const PlayOptions& o_;
+  const int64_t policy_version_;
+  const double dt_;
+  const int push_ticks_total_;
+  actor::RolloutWorker worker_;
+  sim::ImitationEnv& e_;
+  const sim::MotionSet& motions_;
+  const mjModel* model_;
+  const int root_;
+  std::unique_ptr<std::FILE, FileCloser> log_;
+  KeyState keys_;
+  render::Renderer renderer_;
+  sim::DataPtr reference_;
+  std::vector<double> reference_qvel_;
+  std::mt19937_64 rng_;
+  std::uniform_real_distribution<double> uniform_{0.0, 1.0};
+  Clock::time_point start_;
+
+  int command_ = 0;
+  int episode_ = 0, push_ticks_ = 0, falls_ = 0, pushes_ = 0;
+  double push_angle_ = 0;  // of the current push, from the character's facing, radians
+  double pause_left_ = 0;  // s of the fall still to show
+  int64_t ticks_ = 0, steps_ = 0, frames_ = 0, skipped_ = 0;
+  double lost_ = 0;                             // wall seconds the simulation fell behind for good
+  double step_seconds_ = 0, draw_seconds_ = 0;  // spent stepping and drawing, for the summary
+  double window_start_ = 0, fps_ = 0, realtime_ = 0;
+  int64_t window_frames_ = 0, window_ticks_ = 0;
+};
+
 int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
-  using Clock = std::chrono::steady_clock;
   TrainedPolicy policy = LoadTrainedPolicy(o.target);
   sim::EnvConfig env = policy.experiment.environment;
   if (!env.steering.enabled()) {
@@ -88,184 +327,8 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
   env.max_episode_steps = 1'000'000'000;
   // Real time on one core: the policy's forward pass on this thread only.
   at::set_num_threads(1);
-
-  actor::RolloutWorker worker(env, 1, 1, o.seed, "play");
-  worker.SetPolicy(policy.snapshot);
-  sim::ImitationEnv& e = worker.environment(0);
-  const sim::MotionSet& motions = e.motion_set();
-  const mjModel* model = e.character().model();
-  const int root = e.character().root_body();
-
-  std::unique_ptr<std::FILE, FileCloser> log;
-  if (!o.log.empty()) {
-    log.reset(std::fopen(o.log.c_str(), "w"));
-    if (!log) throw ConfigError("play: --log " + o.log + ": cannot write the file");
-    std::fprintf(log.get(),
-                 "time,wall,episode,command,reference,x,y,heading,desired_heading,vx,vy,"
-                 "speed_error,heading_error,fell\n");
-  }
-
-  KeyState keys;
-  render::Renderer renderer(model, o.view, "ragdoll play: " + o.target,
-                            [&keys](int key, bool pressed) { keys.Handle(key, pressed); });
-  sim::DataPtr reference(mj_makeData(model));
-  std::vector<double> reference_qvel(model->nv);
-
-  std::mt19937_64 rng(o.seed);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  int command = motions.Nearest(KeyCommand(keys));
-  worker.SetCommandFirst(command);
-  worker.ResetFirst(uniform(rng));
-
-  const double dt = env.control_dt();
-  const int push_ticks_total = std::max(1, static_cast<int>(std::lround(o.push_duration / dt)));
-  // Further behind than this, the simulation stops catching up (it runs slower than real time
-  // on this machine) rather than stepping in a burst the player would see as a jump.
-  const double max_lag = 0.25;
-  int episode = 0, push_ticks = 0, falls = 0, pushes = 0;
-  double push_angle = 0;  // of the current push, from the character's facing, radians
-  double pause_left = 0;  // s of the fall still to show
-  int64_t ticks = 0, steps = 0, frames = 0, skipped = 0;
-  double lost = 0;                            // wall seconds the simulation fell behind for good
-  double step_seconds = 0, draw_seconds = 0;  // spent stepping and drawing, for the summary
-  // The heads-up figures, over the last second.
-  double window_start = 0, fps = 0, realtime = 0;
-  int64_t window_frames = 0, window_ticks = 0;
-
-  auto reset = [&] {
-    worker.ResetFirst(uniform(rng));
-    ++episode;
-    push_ticks = 0;
-    pause_left = 0;
-  };
-  auto hud = [&] {
-    const sim::Vec3 v = e.TravelVelocity();
-    std::string name = motions.entry(command).name;
-    const std::string& clip = motions.entry(e.reference_entry()).name;
-    if (clip != name) name += " via " + clip;  // a transition clip plays
-    char text[512];
-    std::snprintf(text, sizeof(text),
-                  "command %s\nspeed %.2f m/s\nheading %.0f deg, desired %.0f deg\npolicy v%lld",
-                  name.c_str(), std::hypot(v[0], v[1]), Degrees(e.heading()),
-                  Degrees(e.desired_heading()), static_cast<long long>(policy.version));
-    std::string caption = text;
-    if (window_start > 0) {  // measured over a second at least
-      std::snprintf(text, sizeof(text), "\n%.0f fps, real time x%.2f", fps, realtime);
-      caption += text;
-    }
-    if (pause_left > 0) {
-      caption += "\nfell: restarting";
-    } else if (push_ticks > 0) {
-      std::snprintf(text, sizeof(text), "\npush %.0f N at %+.0f deg from facing", o.push_force,
-                    Degrees(push_angle));
-      caption += text;
-    }
-    return caption;
-  };
-  auto draw = [&] {
-    const mjData* ghost = nullptr;
-    if (o.ghost == "overlay") {
-      e.ReferenceState(e.time(), reference->qpos, reference_qvel.data());
-      mj_kinematics(model, reference.get());
-      ghost = reference.get();
-    }
-    const auto begin = Clock::now();
-    renderer.Draw(e.data(), ghost, hud(), kHelp);
-    draw_seconds += std::chrono::duration<double>(Clock::now() - begin).count();
-    ++frames;
-    ++window_frames;
-  };
-
-  // The first frame compiles OpenGL programs (half a second in software): the clock starts after.
-  draw();
-  const auto start = Clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
-  double due = 0;  // when the next control step is due, wall seconds from the start
-  while (!stop.load() && !keys.quit && renderer.PollEvents()) {
-    const double now = elapsed();
-    if (o.seconds > 0 && now >= o.seconds) break;
-    if (now < due) {
-      std::this_thread::sleep_for(std::chrono::duration<double>(due - now));
-      continue;
-    }
-    if (now - due > max_lag) {
-      lost += now - due;
-      due = now;
-    }
-
-    // One control step: the keys, then the simulation (or the fall still on screen).
-    if (keys.reset) reset();
-    keys.reset = false;
-    if (pause_left > 0) {
-      pause_left -= dt;
-      if (pause_left <= 0) reset();
-    } else {
-      const int wanted = motions.Nearest(KeyCommand(keys));
-      if (wanted != command) {
-        command = wanted;
-        worker.SetCommandFirst(command);
-      }
-      if (keys.push) {
-        const double direction = 2 * M_PI * uniform(rng);
-        e.SetExternalForce(
-            root, {o.push_force * std::cos(direction), o.push_force * std::sin(direction), 0});
-        push_angle = sim::WrapAngle(direction - e.heading());
-        push_ticks = push_ticks_total;
-        ++pushes;
-      }
-      const auto begin = Clock::now();
-      const sim::StepResult r = worker.StepFirst(true);
-      step_seconds += std::chrono::duration<double>(Clock::now() - begin).count();
-      ++steps;
-      if (push_ticks > 0 && --push_ticks == 0) e.SetExternalForce(root, {0, 0, 0});
-      if (log) {
-        const sim::Vec3 v = e.TravelVelocity();
-        std::fprintf(log.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n",
-                     (ticks + 1) * dt, elapsed(), episode, motions.entry(command).name.c_str(),
-                     motions.entry(e.reference_entry()).name.c_str(), e.data().qpos[0],
-                     e.data().qpos[1], e.heading(), e.desired_heading(), v[0], v[1], e.SpeedError(),
-                     e.HeadingError(), r.terminated ? 1 : 0);
-      }
-      if (r.terminated) {
-        ++falls;
-        std::fprintf(stderr, "play: fell (%s) after %.1f s; restarting\n",
-                     sim::EpisodeEndName(e.episode().end), e.episode_time());
-        pause_left = o.fall_pause;
-        push_ticks = 0;
-        if (pause_left <= 0) reset();
-      } else if (r.truncated) {
-        reset();
-      }
-    }
-    keys.push = false;
-    ++ticks;
-    ++window_ticks;
-    due += dt;
-
-    if (now - window_start >= 1.0) {
-      fps = window_frames / (now - window_start);
-      realtime = window_ticks * dt / (now - window_start);
-      window_start = now;
-      window_frames = window_ticks = 0;
-    }
-    // Draw only when the next step is not due yet: a late frame is skipped, not the simulation.
-    if (elapsed() < due) {
-      draw();
-    } else {
-      ++skipped;
-    }
-  }
-
-  const double wall = elapsed();
-  std::fprintf(stderr,
-               "play: %.1f s in %.1f s: real-time factor %.2f, %.1f frames/s (%lld skipped), "
-               "%lld control steps (%.1f ms each), %.1f ms a frame, %d fall%s, %d push%s, %.1f s "
-               "lost behind real time\n",
-               ticks * dt, wall, ticks * dt / std::max(wall, 1e-9), frames / std::max(wall, 1e-9),
-               static_cast<long long>(skipped), static_cast<long long>(steps),
-               1000 * step_seconds / std::max<int64_t>(steps, 1),
-               1000 * draw_seconds / std::max<int64_t>(frames, 1), falls, falls == 1 ? "" : "s",
-               pushes, pushes == 1 ? "" : "es", lost);
+  PlaySession session(o, policy, env);
+  session.Run(stop);
   return 0;
 }
 

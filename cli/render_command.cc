@@ -9,10 +9,10 @@
 #include <memory>
 
 #include "actor/command_evaluation.h"
-#include "actor/render/renderer.h"
-#include "actor/render/video.h"
 #include "actor/rollout.h"
 #include "actor/sim/motion_io.h"
+#include "cli/render/renderer.h"
+#include "cli/render/video.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 

@@ -56,6 +56,10 @@ class ConfigSection {
   // Throws ConfigError "file:line: prefix.key: message".
   [[noreturn]] void Fail(const std::string& key, const std::string& message) const;
 
+  // A copy of this section's parsed YAML, to edit (an effective configuration to write out)
+  // without reading the file again.
+  YAML::Node Clone() const { return YAML::Clone(node_); }
+
   const std::string& file() const { return file_; }
   // Folder of the config file, for resolving relative paths ("." for in-memory text).
   const std::string& base_dir() const { return base_dir_; }

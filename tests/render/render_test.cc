@@ -1,5 +1,5 @@
 // The renderer draws what the simulation holds: run under Xvfb (see tests/CMakeLists.txt).
-#include "actor/render/renderer.h"
+#include "cli/render/renderer.h"
 
 #include <gtest/gtest.h>
 
@@ -8,9 +8,9 @@
 #include <fstream>
 #include <set>
 
-#include "actor/render/video.h"
 #include "actor/sim/character.h"
 #include "actor/sim/motion_io.h"
+#include "cli/render/video.h"
 
 namespace ragdoll::render {
 namespace {

@@ -1,4 +1,4 @@
-#include "actor/render/renderer.h"
+#include "cli/render/renderer.h"
 
 #include <GLFW/glfw3.h>
 

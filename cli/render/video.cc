@@ -1,4 +1,4 @@
-#include "actor/render/video.h"
+#include "cli/render/video.h"
 
 #include <signal.h>
 #include <sys/wait.h>

@@ -223,8 +223,8 @@ class Replay {
             }
           }
           if (per_thread > 0) {
-            // Asleep until this thread's next segment is due: the replay costs the learners
-            // under test little CPU (0.01-0.02 core at 5 000-10 000 samples/s).
+            // Asleep until this thread's next segment is due, so that the replay takes little
+            // of the learners' CPU (docs/learner-scaling.md has the figure).
             const double due = sent * segment_samples / per_thread;
             if (due > Since(start)) {
               std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
@@ -244,8 +244,8 @@ class Replay {
             offered_.fetch_add(1);
           } else {
             // Flooding, the learners' queues are full (the broker reads only what they can
-            // take): wait until there is room or a snapshot comes. Retrying every 0.1 ms instead
-            // cost 0.24 cores of the learners' two.
+            // take): wait until there is room or a snapshot comes, since retrying spins on the
+            // learners' cores (docs/learner-scaling.md).
             zmq::pollitem_t items[] = {{push.handle(), 0, ZMQ_POLLOUT, 0},
                                        {snapshots.handle(), 0, ZMQ_POLLIN, 0}};
             zmq::poll(items, 2, std::chrono::milliseconds(50));
@@ -377,7 +377,7 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
 // A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
 // (0: more than it can take). Trained samples/s and the stale-drop fraction. Replica i runs on
 // learner_cores[i*threads .. (i+1)*threads - 1] (--pin); with none given, anywhere.
-nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& config,
+nlohmann::json BenchLearner(const std::string& ragdoll, const cli::Experiment& e,
                             const Recording& rec, const Ports& ports, double seconds, int threads,
                             int replicas, double rate, int senders,
                             const std::vector<int>& learner_cores) {
@@ -386,17 +386,10 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
   fs::remove_all(dir);
   fs::create_directories(dir);
   // The experiment with this thread count and nothing else changed (no checkpoints meanwhile).
-  YAML::Node node = YAML::LoadFile(config);
+  YAML::Node node = YAML::Clone(e.tree);
   node["trainer"]["threads"] = threads;
   node["trainer"]["max_steps"] = 1e12;
   node["trainer"]["checkpoint_interval"] = 1e12;
-  const fs::path base = fs::path(config).parent_path();
-  for (const char* key : {"motion", "character"}) {
-    if (node["environment"][key]) {
-      node["environment"][key] =
-          fs::absolute(base / node["environment"][key].as<std::string>()).string();
-    }
-  }
   const fs::path bench_config = dir / "bench.yaml";
   {
     YAML::Emitter emitter;
@@ -429,14 +422,14 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const std::string& confi
   zmq::context_t context(2);
   Replay replay(context, ports.endpoints, rec, senders, rate);
   // Warm up: two updates done, so the group has formed and the first update's set-up is past.
-  const double buffer = node["trainer"]["hyperparameters"]["buffer_size"].as<double>(20000);
+  const double buffer = e.trainer.buffer_size;
   if (!WaitFor(120, [&] { return trained() >= 2 * buffer; })) {
     out["error"] = "the learner group trained nothing within 120 s";
     return out;
   }
   // The window runs from one update's landing to another's, so that it holds whole updates
-  // only (an update is 2-3 s of 15-20: counting from a moment in between would be off by up to
-  // one update's samples).
+  // only: an update is a large part of the window, and counting from a moment in between would
+  // be off by up to one update's samples.
   auto next_landing = [&](double after) {
     WaitFor(60, [&] { return trained() > after; });
     return Clock::now();
@@ -546,7 +539,7 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 // train on, so they may absorb more than they train flooded), down by 15 % while it fails, then
 // once halfway between the last pass and the first failure. The figure is the best absorption
 // among the runs that passed.
-nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
+nlohmann::json Absorption(const std::string& ragdoll, const cli::Experiment& e,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
                           int replicas, int senders, const std::vector<int>& learner_cores,
                           const nlohmann::json& flood, double lowest_start) {
@@ -560,7 +553,7 @@ nlohmann::json Absorption(const std::string& ragdoll, const std::string& config,
                0.95 * run["offered_samples_per_s"].get<double>();
   };
   auto offer = [&](double rate) {
-    return BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas, rate, senders,
+    return BenchLearner(ragdoll, e, rec, ports, seconds, threads, replicas, rate, senders,
                         learner_cores);
   };
   // A run's absorption is what was both offered and trained: a run may also train a
@@ -613,192 +606,234 @@ std::vector<int> Numbers(const std::string& list) {
   return out;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app("Broker ceiling, learner absorption and snapshot fan-out on loopback.");
+struct BenchOptions {
   std::string config, json_out, threads_list = "1,2", replicas_list = "1,2", harness_list;
   std::string ragdoll = (fs::canonical("/proc/self/exe").parent_path() / "ragdoll").string();
   double seconds = 20;
   int subscribers = 100, senders = 2, port_base = 27000, repeats = 1;
   bool pin = false, curve = false;
-  app.add_option("config", config, "experiment YAML")->required();
-  app.add_option("--ragdoll", ragdoll, "the ragdoll binary")->capture_default_str();
-  app.add_option("--seconds", seconds, "measuring window per figure")->capture_default_str();
-  app.add_option("--threads", threads_list, "learner thread counts (1 replica)")
+};
+
+// The learners' cores: under --pin the first ones (replica i of T threads: i*T .. i*T+T-1,
+// wrapping on a small machine), and --harness-cores must lie beyond them; without --pin none
+// (they float).
+std::vector<int> LearnerCores(const BenchOptions& o, const std::vector<int>& harness) {
+  const int cores = static_cast<int>(std::thread::hardware_concurrency());
+  if (!harness.empty() && !o.pin) {
+    throw std::runtime_error("--harness-cores needs --pin, so that the learners' cores are known");
+  }
+  std::vector<int> learner_cores;
+  if (!o.pin) return learner_cores;
+  int widest = 1;  // the most cores one learner group asks for
+  for (int t : Numbers(o.threads_list)) widest = std::max(widest, t);
+  for (int r : Numbers(o.replicas_list)) widest = std::max(widest, r);
+  for (int c = 0; c < widest; ++c) learner_cores.push_back(c % cores);
+  for (int c : harness) {
+    if (c < 0 || c >= cores) {
+      throw std::runtime_error("--harness-cores: no core " + std::to_string(c) +
+                               " (this machine has " + std::to_string(cores) + ")");
+    }
+    if (c < widest) {
+      throw std::runtime_error("--harness-cores: core " + std::to_string(c) +
+                               " is a learner's under --pin (cores 0-" +
+                               std::to_string(widest - 1) + "); this needs at least " +
+                               std::to_string(widest + 1) + " cores");
+    }
+  }
+  return learner_cores;
+}
+
+// --curve: fresh keys for every role beside the ragdoll binary; the folder ("" for plaintext).
+std::string MakeKeys(const BenchOptions& o) {
+  if (!o.curve) return "";
+  const std::string keys = (fs::path(o.ragdoll).parent_path() / "bench-cluster-keys").string();
+  fs::remove_all(keys);
+  for (const char* role : {"broker", "actor", "learner"}) {
+    const KeyPaths paths = KeyPathsOf(keys, role, role);
+    SaveCertificate(NewCertificate(role, role), paths.public_key, paths.secret_key);
+  }
+  return keys;
+}
+
+void BrokerFigures(const BenchOptions& o, const Recording& rec, const Ports& ports,
+                   nlohmann::json& result) {
+  nlohmann::json broker = BenchBroker(o.ragdoll, o.config, rec, ports, o.seconds, o.senders);
+  result["broker"] = broker;
+  std::printf(
+      "broker ceiling (sink as learner)  %8.0f segments/s  %9.0f samples/s  %7.1f MB/s  "
+      "broker CPU %.2f cores  -> %.0f samples/s per broker core\n",
+      broker["segments_per_s"].get<double>(), broker["samples_per_s"].get<double>(),
+      broker["MB_per_s"].get<double>(), broker["broker_cpu_cores"].get<double>(),
+      broker["samples_per_s_per_broker_core"].get<double>());
+  std::fflush(stdout);
+}
+
+// One group's line: flooded, then its stale-free absorption and where the CPU went there.
+void PrintAbsorption(int threads, int replicas, const nlohmann::json& flood,
+                     const nlohmann::json& paced, double ratio) {
+  std::printf(
+      "learner %d thread(s) x %d replica(s)  flooded: %7.0f samples/s trained, stale %.3f, "
+      "CPU %.2f cores | absorbs %7.0f samples/s stale-free (offered %.0f: trained %.0f, "
+      "stale %.4f, CPU %.2f cores; broker %.3f, synthetic actors %.3f; update %.2f s, "
+      "idle %.0f %%)",
+      threads, replicas, flood["trained_samples_per_s"].get<double>(),
+      flood["stale_fraction"].get<double>(), flood["learner_cpu_cores"].get<double>(),
+      paced["absorbed_samples_per_s"].get<double>(),
+      paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>(),
+      paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0),
+      paced.value("learner_cpu_cores", 0.0), paced.value("broker_cpu_cores", 0.0),
+      paced.value("synthetic_actors_cpu_cores", 0.0), paced.value("median_update_s", 0.0),
+      100 * paced.value("median_idle_fraction", 0.0));
+  if (ratio > 0) std::printf(" = %.2f x one replica", ratio);
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+// Absorbed samples/s by (threads, replicas), and each replica group's ratios to one replica in
+// the same round, by replica count.
+struct Rounds {
+  std::map<std::pair<int, int>, std::vector<double>> absorbed;
+  std::map<int, std::vector<double>> ratios;
+};
+
+// With --repeats: each group's median absorption and median ratio to one replica.
+void PrintMedians(const Rounds& rounds, nlohmann::json& result) {
+  result["median_absorbed_samples_per_s"] = nlohmann::json::array();
+  for (auto& [group, values] : rounds.absorbed) {
+    std::printf("learner %d thread(s) x %d replica(s)  absorbs %7.0f samples/s (median of %zu)",
+                group.first, group.second, Median(values), values.size());
+    result["median_absorbed_samples_per_s"].push_back(
+        {{"threads", group.first}, {"replicas", group.second}, {"median", Median(values)}});
+    if (rounds.ratios.count(group.second) > 0 && group.second > 1) {
+      const std::vector<double>& r = rounds.ratios.at(group.second);
+      std::printf(", %.2f x one replica (median of %zu rounds' ratios, %.2f-%.2f)", Median(r),
+                  r.size(), *std::min_element(r.begin(), r.end()),
+                  *std::max_element(r.begin(), r.end()));
+      result["median_ratio_to_one_replica"][std::to_string(group.second)] = Median(r);
+    }
+    std::printf("\n");
+  }
+}
+
+// Each learner group flooded, then its absorption searched; --repeats rounds of all groups in
+// turn (1, 2, 1, 2, ...), so that a replica group's ratio to one replica compares runs minutes
+// apart, not a whole search apart: the machines drift within an hour (docs/learner-scaling.md).
+void LearnerFigures(const BenchOptions& o, const cli::Experiment& e, const Recording& rec,
+                    const Ports& ports, const std::vector<int>& learner_cores,
+                    nlohmann::json& result) {
+  std::vector<std::pair<int, int>> groups;
+  for (int t : Numbers(o.threads_list)) groups.emplace_back(t, 1);
+  for (int r : Numbers(o.replicas_list)) {
+    if (r > 1) groups.emplace_back(1, r);
+  }
+  result["learner"] = nlohmann::json::array();
+  Rounds rounds;
+  for (int round = 0; round < o.repeats; ++round) {
+    double one_replica = 0;
+    for (const auto& group : groups) {
+      const int threads = group.first;
+      const int replicas = group.second;
+      nlohmann::json flood = BenchLearner(o.ragdoll, e, rec, ports, o.seconds, threads, replicas, 0,
+                                          o.senders, learner_cores);
+      if (flood.contains("error")) {
+        std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
+                    flood["error"].get<std::string>().c_str());
+        result["learner"].push_back(flood);
+        continue;
+      }
+      // A replica group's search starts no lower than 77 % (0.9 x 0.85) of linear scaling of
+      // this round's one replica.
+      const double lowest_start = replicas > 1 ? 0.9 * 0.85 * replicas * one_replica : 0;
+      nlohmann::json run = Absorption(o.ragdoll, e, rec, ports, o.seconds, threads, replicas,
+                                      o.senders, learner_cores, flood, lowest_start);
+      run["round"] = round;
+      const double absorbed = run["paced"]["absorbed_samples_per_s"].get<double>();
+      rounds.absorbed[group].push_back(absorbed);
+      if (threads == 1 && replicas == 1) one_replica = absorbed;
+      const double ratio = replicas > 1 && one_replica > 0 ? absorbed / one_replica : 0;
+      if (ratio > 0) rounds.ratios[replicas].push_back(ratio);
+      PrintAbsorption(threads, replicas, flood, run["paced"], ratio);
+      result["learner"].push_back(run);
+    }
+  }
+  if (o.repeats > 1) PrintMedians(rounds, result);
+}
+
+void SnapshotFigures(const BenchOptions& o, const Recording& rec, const Ports& ports,
+                     nlohmann::json& result) {
+  nlohmann::json snapshots = BenchSnapshots(o.ragdoll, o.config, rec, ports, o.subscribers, 10);
+  result["snapshots"] = snapshots;
+  std::printf("snapshot (%zu bytes) to %d subscribers: median %.4f s, max %.4f s\n",
+              rec.snapshot.size(), o.subscribers, snapshots["median_s"].get<double>(),
+              snapshots["max_s"].get<double>());
+}
+
+int Run(const BenchOptions& o) {
+  const std::vector<int> harness =
+      o.harness_list.empty() ? std::vector<int>{} : Numbers(o.harness_list);
+  const std::vector<int> learner_cores = LearnerCores(o, harness);
+  if (!harness.empty()) PinTo(harness);
+  cli::Experiment e = cli::ReadExperiment(o.config);
+  const Ports ports = MakePorts(o.port_base, e.broker.endpoints, MakeKeys(o));
+  const int buffer_segments = static_cast<int>(e.trainer.buffer_size / e.trainer.time_horizon) + 1;
+  std::fprintf(stderr, "recording %d segments from %s ...\n", buffer_segments, o.config.c_str());
+  const Recording rec = Record(e, buffer_segments);
+  nlohmann::json result = {{"config", o.config},
+                           {"curve", o.curve},
+                           {"cores", std::thread::hardware_concurrency()},
+                           {"bytes_per_sample", rec.bytes_per_sample},
+                           {"time_horizon", rec.time_horizon},
+                           {"pin", o.pin},
+                           {"harness_cores", harness}};
+  std::printf("cluster benchmark (%s, %u cores, %.0f bytes per sample on the wire, %s)\n",
+              o.config.c_str(), std::thread::hardware_concurrency(), rec.bytes_per_sample,
+              o.curve ? "CURVE" : "plaintext");
+  BrokerFigures(o, rec, ports, result);
+  LearnerFigures(o, e, rec, ports, learner_cores, result);
+  SnapshotFigures(o, rec, ports, result);
+  if (!o.json_out.empty()) std::ofstream(o.json_out) << result.dump(2) << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Broker ceiling, learner absorption and snapshot fan-out on loopback.");
+  BenchOptions o;
+  app.add_option("config", o.config, "experiment YAML")->required();
+  app.add_option("--ragdoll", o.ragdoll, "the ragdoll binary")->capture_default_str();
+  app.add_option("--seconds", o.seconds, "measuring window per figure")->capture_default_str();
+  app.add_option("--threads", o.threads_list, "learner thread counts (1 replica)")
       ->capture_default_str();
-  app.add_option("--replicas", replicas_list, "learner replica counts (1 thread each)")
+  app.add_option("--replicas", o.replicas_list, "learner replica counts (1 thread each)")
       ->capture_default_str();
-  app.add_option("--subscribers", subscribers, "actors subscribed to snapshots")
+  app.add_option("--subscribers", o.subscribers, "actors subscribed to snapshots")
       ->capture_default_str();
-  app.add_option("--repeats", repeats,
+  app.add_option("--repeats", o.repeats,
                  "run the learner groups in turn this many times; medians, and each replica "
                  "group's median ratio to one replica in the same round")
       ->capture_default_str()
       ->check(CLI::Range(1, 20));
-  app.add_option("--senders", senders, "synthetic actor threads")->capture_default_str();
-  app.add_option("--port-base", port_base, "ports PORT_BASE..PORT_BASE+60")->capture_default_str();
-  app.add_option("--json", json_out, "also write the figures here");
-  app.add_flag("--pin", pin,
+  app.add_option("--senders", o.senders, "synthetic actor threads")->capture_default_str();
+  app.add_option("--port-base", o.port_base, "ports PORT_BASE..PORT_BASE+60")
+      ->capture_default_str();
+  app.add_option("--json", o.json_out, "also write the figures here");
+  app.add_flag("--pin", o.pin,
                "pin learner replica i of T threads to cores i*T..i*T+T-1 (the broker and the "
                "synthetic actors float unless --harness-cores), so that each replica has cores "
                "of its own");
-  app.add_option("--harness-cores", harness_list,
+  app.add_option("--harness-cores", o.harness_list,
                  "cores for the broker, the synthetic actors and this process (e.g. 2 or 2,3), "
                  "none of the learners' under --pin: on a machine with cores to spare, the "
                  "learners then share theirs with nothing of the benchmark's");
-  app.add_flag("--curve", curve,
+  app.add_flag("--curve", o.curve,
                "every socket on CURVE (keys made in build/bench-cluster-keys), to compare with a "
                "plaintext run");
   CLI11_PARSE(app, argc, argv);
   try {
-    // Under --pin the learners take the first cores (replica i of T threads: i*T .. i*T+T-1,
-    // wrapping on a small machine) and --harness-cores must lie beyond them; without it they float.
-    const int cores = static_cast<int>(std::thread::hardware_concurrency());
-    const std::vector<int> harness =
-        harness_list.empty() ? std::vector<int>{} : Numbers(harness_list);
-    if (!harness.empty() && !pin) {
-      throw std::runtime_error(
-          "--harness-cores needs --pin, so that the learners' cores are known");
-    }
-    std::vector<int> learner_cores;
-    if (pin) {
-      int widest = 1;  // the most cores one learner group asks for
-      for (int t : Numbers(threads_list)) widest = std::max(widest, t);
-      for (int r : Numbers(replicas_list)) widest = std::max(widest, r);
-      for (int c = 0; c < widest; ++c) learner_cores.push_back(c % cores);
-      for (int c : harness) {
-        if (c < 0 || c >= cores) {
-          throw std::runtime_error("--harness-cores: no core " + std::to_string(c) +
-                                   " (this machine has " + std::to_string(cores) + ")");
-        }
-        if (c < widest) {
-          throw std::runtime_error("--harness-cores: core " + std::to_string(c) +
-                                   " is a learner's under --pin (cores 0-" +
-                                   std::to_string(widest - 1) + "); this needs at least " +
-                                   std::to_string(widest + 1) + " cores");
-        }
-      }
-    }
-    if (!harness.empty()) PinTo(harness);
-    cli::Experiment e = cli::ReadExperiment(config);
-    std::string keys;
-    if (curve) {
-      keys = (fs::path(ragdoll).parent_path() / "bench-cluster-keys").string();
-      fs::remove_all(keys);
-      for (const char* role : {"broker", "actor", "learner"}) {
-        const KeyPaths paths = KeyPathsOf(keys, role, role);
-        SaveCertificate(NewCertificate(role, role), paths.public_key, paths.secret_key);
-      }
-    }
-    const Ports ports = MakePorts(port_base, e.broker.endpoints, keys);
-    const int buffer_segments =
-        static_cast<int>(e.trainer.buffer_size / e.trainer.time_horizon) + 1;
-    std::fprintf(stderr, "recording %d segments from %s ...\n", buffer_segments, config.c_str());
-    const Recording rec = Record(e, buffer_segments);
-    nlohmann::json result = {{"config", config},
-                             {"curve", curve},
-                             {"cores", std::thread::hardware_concurrency()},
-                             {"bytes_per_sample", rec.bytes_per_sample},
-                             {"time_horizon", rec.time_horizon},
-                             {"pin", pin},
-                             {"harness_cores", harness}};
-    std::printf("cluster benchmark (%s, %u cores, %.0f bytes per sample on the wire, %s)\n",
-                config.c_str(), std::thread::hardware_concurrency(), rec.bytes_per_sample,
-                curve ? "CURVE" : "plaintext");
-
-    nlohmann::json broker = BenchBroker(ragdoll, config, rec, ports, seconds, senders);
-    result["broker"] = broker;
-    std::printf(
-        "broker ceiling (sink as learner)  %8.0f segments/s  %9.0f samples/s  %7.1f MB/s  "
-        "broker CPU %.2f cores  -> %.0f samples/s per broker core\n",
-        broker["segments_per_s"].get<double>(), broker["samples_per_s"].get<double>(),
-        broker["MB_per_s"].get<double>(), broker["broker_cpu_cores"].get<double>(),
-        broker["samples_per_s_per_broker_core"].get<double>());
-    std::fflush(stdout);
-
-    std::vector<std::pair<int, int>> groups;
-    for (int t : Numbers(threads_list)) groups.emplace_back(t, 1);
-    for (int r : Numbers(replicas_list)) {
-      if (r > 1) groups.emplace_back(1, r);
-    }
-    // With --repeats N the groups run in turn N times (1, 2, 1, 2, ...), so that each replica
-    // group's ratio to one replica compares runs minutes apart, not a whole search apart: the
-    // machines these figures come from drift by 15 % within an hour.
-    result["learner"] = nlohmann::json::array();
-    std::map<std::pair<int, int>, std::vector<double>> absorbed_by_group;
-    std::map<int, std::vector<double>> ratios;  // by replica count: to one replica, same round
-    for (int round = 0; round < repeats; ++round) {
-      double one_replica = 0;
-      for (const auto& group : groups) {
-        const int threads = group.first;
-        const int replicas = group.second;
-        nlohmann::json flood = BenchLearner(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                            0, senders, learner_cores);
-        if (flood.contains("error")) {
-          std::printf("learner %d thread(s) x %d replica(s): %s\n", threads, replicas,
-                      flood["error"].get<std::string>().c_str());
-          result["learner"].push_back(flood);
-          continue;
-        }
-        // A replica group's search starts no lower than 77 % (0.9 x 0.85) of linear scaling of
-        // this round's one replica.
-        const double lowest_start = replicas > 1 ? 0.9 * 0.85 * replicas * one_replica : 0;
-        nlohmann::json run = Absorption(ragdoll, config, rec, ports, seconds, threads, replicas,
-                                        senders, learner_cores, flood, lowest_start);
-        run["round"] = round;
-        const nlohmann::json& paced = run["paced"];
-        const double flooded = flood["trained_samples_per_s"].get<double>();
-        const double absorbed = paced["absorbed_samples_per_s"].get<double>();
-        absorbed_by_group[group].push_back(absorbed);
-        if (threads == 1 && replicas == 1) one_replica = absorbed;
-        const double ratio = replicas > 1 && one_replica > 0 ? absorbed / one_replica : 0;
-        if (ratio > 0) ratios[replicas].push_back(ratio);
-        std::printf(
-            "learner %d thread(s) x %d replica(s)  flooded: %7.0f samples/s trained, stale %.3f, "
-            "CPU %.2f cores | absorbs %7.0f samples/s stale-free (offered %.0f: trained %.0f, "
-            "stale %.4f, CPU %.2f cores; broker %.3f, synthetic actors %.3f; update %.2f s, "
-            "idle %.0f %%)",
-            threads, replicas, flooded, flood["stale_fraction"].get<double>(),
-            flood["learner_cpu_cores"].get<double>(), absorbed,
-            paced.value("offered_samples_per_s", nlohmann::json(0.0)).get<double>(),
-            paced.value("trained_samples_per_s", 0.0), paced.value("stale_fraction", -1.0),
-            paced.value("learner_cpu_cores", 0.0), paced.value("broker_cpu_cores", 0.0),
-            paced.value("synthetic_actors_cpu_cores", 0.0), paced.value("median_update_s", 0.0),
-            100 * paced.value("median_idle_fraction", 0.0));
-        if (ratio > 0) std::printf(" = %.2f x one replica", ratio);
-        std::printf("\n");
-        std::fflush(stdout);
-        result["learner"].push_back(run);
-      }
-    }
-    if (repeats > 1) {
-      result["median_absorbed_samples_per_s"] = nlohmann::json::array();
-      for (auto& [group, values] : absorbed_by_group) {
-        std::printf("learner %d thread(s) x %d replica(s)  absorbs %7.0f samples/s (median of %zu)",
-                    group.first, group.second, Median(values), values.size());
-        result["median_absorbed_samples_per_s"].push_back(
-            {{"threads", group.first}, {"replicas", group.second}, {"median", Median(values)}});
-        if (ratios.count(group.second) > 0 && group.second > 1) {
-          const std::vector<double>& r = ratios[group.second];
-          std::printf(", %.2f x one replica (median of %zu rounds' ratios, %.2f-%.2f)", Median(r),
-                      r.size(), *std::min_element(r.begin(), r.end()),
-                      *std::max_element(r.begin(), r.end()));
-          result["median_ratio_to_one_replica"][std::to_string(group.second)] = Median(r);
-        }
-        std::printf("\n");
-      }
-    }
-
-    nlohmann::json snapshots = BenchSnapshots(ragdoll, config, rec, ports, subscribers, 10);
-    result["snapshots"] = snapshots;
-    std::printf("snapshot (%zu bytes) to %d subscribers: median %.4f s, max %.4f s\n",
-                rec.snapshot.size(), subscribers, snapshots["median_s"].get<double>(),
-                snapshots["max_s"].get<double>());
-    if (!json_out.empty()) std::ofstream(json_out) << result.dump(2) << "\n";
+    return Run(o);
   } catch (const std::exception& error) {
     std::fprintf(stderr, "ragdoll-bench-cluster: %s\n", error.what());
     return 1;
   }
-  return 0;
 }

@@ -1,0 +1,136 @@
+#include "cli/eval_command.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+#include "actor/command_evaluation.h"
+#include "actor/evaluation.h"
+#include "actor/sim/character.h"
+#include "actor/sim/motion_set.h"
+#include "cli/trained_policy.h"
+#include "common/config_section.h"
+
+namespace ragdoll::cli {
+namespace {
+
+struct EvalOptions {
+  std::string target, json_out;
+  int episodes = 20;
+  uint64_t seed = 12345;
+  bool pushes = false;
+  actor::PushConfig push;
+  std::string commands;  // a command script file, "random", or empty (no scripted runs)
+  actor::CommandEvalConfig command_eval;
+};
+
+// Scripted steering runs (--commands), which need a policy trained with a steering task.
+actor::CommandEvalResult EvaluateScripts(const TrainedPolicy& policy, EvalOptions& o) {
+  const sim::EnvConfig& env = policy.experiment.environment;
+  if (!env.steering.enabled()) {
+    throw ConfigError("--commands: " + policy.checkpoint +
+                      " was not trained with a steering task (environment.steering)");
+  }
+  auto character = sim::Character::Load(env.character, env.physics_dt());
+  o.command_eval.random = o.commands == "random";
+  if (!o.command_eval.random) {
+    o.command_eval.script =
+        actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character));
+  }
+  return actor::EvaluateCommands(env, policy.snapshot, o.command_eval, o.seed);
+}
+
+// A run folder keeps its latest evaluation, written whole or not at all.
+void WriteRunEvaluation(const std::filesystem::path& run, const std::string& json) {
+  const auto path = run / "eval.json";
+  const auto temporary = std::filesystem::path(path.string() + ".tmp");
+  {
+    std::ofstream out(temporary);
+    out << json << "\n";
+    if (!out.flush()) throw std::runtime_error(temporary.string() + ": cannot write");
+  }
+  std::filesystem::rename(temporary, path);
+  std::fprintf(stderr, "wrote %s\n", path.c_str());
+}
+
+int RunEval(EvalOptions& o) {
+  TrainedPolicy policy = LoadTrainedPolicy(o.target);
+  const sim::EnvConfig& env = policy.experiment.environment;
+  actor::EvaluationResult r = actor::Evaluate(env, policy.snapshot, o.episodes, o.seed);
+  std::unique_ptr<actor::RobustnessResult> robustness;
+  if (o.pushes) {
+    robustness = std::make_unique<actor::RobustnessResult>(
+        actor::EvaluatePushes(env, policy.snapshot, o.push, o.seed));
+  }
+  std::unique_ptr<actor::CommandEvalResult> scripted;
+  if (!o.commands.empty()) {
+    scripted = std::make_unique<actor::CommandEvalResult>(EvaluateScripts(policy, o));
+  }
+  // Which checkpoint was evaluated goes with the figures (`ragdoll report` shows it).
+  nlohmann::json result = nlohmann::json::parse(r.ToJson(robustness.get()));
+  if (scripted) {
+    result["commands"] = nlohmann::json::parse(scripted->ToJson());
+    result["commands"]["script"] = o.commands;
+  }
+  result["checkpoint"] = policy.checkpoint;
+  result["policy_version"] = policy.version;
+  result["samples"] = policy.samples;
+  const std::string json = result.dump(2);
+  std::cout << json << "\n";
+  std::fprintf(stderr,
+               "%s (policy v%lld, %lld samples): normalised return %.3f, length %.1f steps, "
+               "fall rate %.2f over %d episodes\n",
+               policy.checkpoint.c_str(), static_cast<long long>(policy.version),
+               static_cast<long long>(policy.samples), r.normalized_return, r.episode_length,
+               r.fall_rate, r.episodes);
+  if (robustness) std::fprintf(stderr, "%s", robustness->ToTable().c_str());
+  if (scripted) std::fprintf(stderr, "%s", scripted->ToTable().c_str());
+  if (!o.json_out.empty()) std::ofstream(o.json_out) << json << "\n";
+  if (std::filesystem::is_directory(o.target)) WriteRunEvaluation(o.target, json);
+  return 0;
+}
+
+}  // namespace
+
+std::function<int()> AddEvalCommand(CLI::App& app) {
+  auto o = std::make_shared<EvalOptions>();
+  auto* cmd = app.add_subcommand("eval", "evaluate a trained policy deterministically");
+  cmd->add_option("run_or_checkpoint", o->target, "runs/<id> or a checkpoint file")->required();
+  cmd->add_option("--episodes", o->episodes, "episodes to run")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "seed of the start phases")->capture_default_str();
+  cmd->add_option("--json", o->json_out, "also write the result to this file");
+  cmd->add_flag("--pushes", o->pushes, "also run push trials (robustness)");
+  cmd->add_option("--push-impulses", o->push.impulses, "impulses to try, N s")
+      ->delimiter(',')
+      ->capture_default_str();
+  cmd->add_option("--push-trials", o->push.trials, "trials per impulse")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--push-body", o->push.body, "body pushed")->capture_default_str();
+  cmd->add_option("--push-duration", o->push.duration, "seconds the push lasts")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--push-direction", o->push.direction,
+                  "random, or forward/backward/left/right of the heading")
+      ->capture_default_str();
+  cmd->add_option("--commands", o->commands,
+                  "steering runs: play a command script (FILE) or 'random' scripts, and "
+                  "score speed and heading tracking, falls and transitions");
+  cmd->add_option("--command-runs", o->command_eval.runs, "scripted runs (--commands)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--command-seconds", o->command_eval.duration,
+                  "length of each random script, s (--commands random)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  return [cmd, o]() -> int {
+    if (!*cmd) return -1;
+    return RunEval(*o);
+  };
+}
+
+}  // namespace ragdoll::cli
