@@ -291,14 +291,18 @@ int main(int argc, char** argv) {
       return actor::RunActor(e.environment, a, e.broker.endpoints, g_stop);
     }
     if (*learner_cmd) {
-      actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
+      const sim::EnvSpec spec = sim::MakeEnvSpec(
+          e.environment,
+          *sim::Character::Load(e.environment.character, e.environment.physics_dt()));
       learner::LearnerProcessConfig l;
       l.run_id = run_id;
       l.run_dir = run_dir.empty() ? "runs/" + run_id : run_dir;
       l.label = e.name;
       l.config_text = e.text;
-      l.observation_size = probe.spec().observation_size;
-      l.action_size = probe.spec().action_size;
+      l.observation_size = spec.observation_size;
+      l.action_size = spec.action_size;
+      l.figure_names = spec.figure_names;
+      l.reward_terms = spec.reward_terms;
       l.resume = resume;
       l.init_from = init_from;
       l.metrics_bind = e.metrics.bind;

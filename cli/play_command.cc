@@ -15,6 +15,7 @@
 
 #include "actor/render/renderer.h"
 #include "actor/rollout.h"
+#include "actor/sim/steering_task.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 
@@ -92,6 +93,7 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
   actor::RolloutWorker worker(env, 1, 1, o.seed, "play");
   worker.SetPolicy(policy.snapshot);
   sim::ImitationEnv& e = worker.environment(0);
+  const sim::SteeringTask& steering = sim::Steering(e);
   const sim::MotionSet& motions = e.motion_set();
   const mjModel* model = e.character().model();
   const int root = e.character().root_body();
@@ -139,7 +141,7 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
     pause_left = 0;
   };
   auto hud = [&] {
-    const sim::Vec3 v = e.TravelVelocity();
+    const sim::Vec3 v = steering.TravelVelocity();
     std::string name = motions.entry(command).name;
     const std::string& clip = motions.entry(e.reference_entry()).name;
     if (clip != name) name += " via " + clip;  // a transition clip plays
@@ -147,7 +149,7 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
     std::snprintf(text, sizeof(text),
                   "command %s\nspeed %.2f m/s\nheading %.0f deg, desired %.0f deg\npolicy v%lld",
                   name.c_str(), std::hypot(v[0], v[1]), Degrees(e.heading()),
-                  Degrees(e.desired_heading()), static_cast<long long>(policy.version));
+                  Degrees(steering.desired_heading()), static_cast<long long>(policy.version));
     std::string caption = text;
     if (window_start > 0) {  // measured over a second at least
       std::snprintf(text, sizeof(text), "\n%.0f fps, real time x%.2f", fps, realtime);
@@ -219,17 +221,17 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
       ++steps;
       if (push_ticks > 0 && --push_ticks == 0) e.SetExternalForce(root, {0, 0, 0});
       if (log) {
-        const sim::Vec3 v = e.TravelVelocity();
+        const sim::Vec3 v = steering.TravelVelocity();
         std::fprintf(log.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n",
                      (ticks + 1) * dt, elapsed(), episode, motions.entry(command).name.c_str(),
                      motions.entry(e.reference_entry()).name.c_str(), e.data().qpos[0],
-                     e.data().qpos[1], e.heading(), e.desired_heading(), v[0], v[1], e.SpeedError(),
-                     e.HeadingError(), r.terminated ? 1 : 0);
+                     e.data().qpos[1], e.heading(), steering.desired_heading(), v[0], v[1],
+                     steering.SpeedError(), steering.HeadingError(e), r.terminated ? 1 : 0);
       }
       if (r.terminated) {
         ++falls;
         std::fprintf(stderr, "play: fell (%s) after %.1f s; restarting\n",
-                     sim::EpisodeEndName(e.episode().end), e.episode_time());
+                     sim::EpisodeEndName(e.episode().end), steering.episode_time());
         pause_left = o.fall_pause;
         push_ticks = 0;
         if (pause_left <= 0) reset();
