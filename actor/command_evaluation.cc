@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "actor/rollout.h"
+#include "actor/sim/steering_task.h"
 #include "common/config_section.h"
 
 namespace ragdoll::actor {
@@ -108,6 +109,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
   RolloutWorker worker(env, 1, 1, seed, "commands");
   worker.SetPolicy(snapshot);
   sim::ImitationEnv& e = worker.environment(0);
+  const sim::SteeringTask& steering = sim::Steering(e);
   const sim::MotionSet& motions = e.motion_set();
   const double imitation_max = env.reward.MaxReward();
   std::mt19937_64 phases(seed);
@@ -135,7 +137,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
       pending = false;
       if (!fell && transition.steps == 0) return;  // the next change came before it settled
       TransitionOutcome& o =
-          result.transitions[previous + "->" + e.motion_set().entry(e.command_entry()).name];
+          result.transitions[previous + "->" + e.motion_set().entry(steering.command_entry()).name];
       ++o.count;
       if (!fell && transition.speed / transition.steps <= config.transition_speed &&
           transition.heading / transition.steps <= config.transition_heading) {
@@ -148,7 +150,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
       const double t = step * dt;
       if (next < script.changes.size() && t >= script.changes[next].at - 1e-9) {
         close_transition(false);
-        previous = motions.entry(e.command_entry()).name;
+        previous = motions.entry(steering.command_entry()).name;
         worker.SetCommandFirst(motions.Find(script.changes[next].command));
         changed_at = t;
         pending = true;
@@ -165,7 +167,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
       }
       const double since = t + dt - changed_at;
       if (since < config.settle) continue;
-      const double speed = e.SpeedError(), heading = std::abs(e.HeadingError());
+      const double speed = steering.SpeedError(), heading = std::abs(steering.HeadingError(e));
       if (pending) {
         if (since <= config.transition_window) {
           transition.Add(speed, heading, 0);
@@ -175,8 +177,8 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
       }
       if (motions.entry(e.reference_entry()).transition()) continue;
       const double imitation = (r.terms.total - r.terms.task) / imitation_max;
-      const sim::Command& c = e.command();
-      per_command[motions.entry(e.command_entry()).name].Add(speed, heading, imitation);
+      const sim::Command& c = steering.command();
+      per_command[motions.entry(steering.command_entry()).name].Add(speed, heading, imitation);
       overall.Add(speed, heading, imitation);
       if (std::hypot(c.forward, c.left) > 0.1 || std::abs(c.turn) > 0.1) {
         moving.Add(speed, heading, imitation);

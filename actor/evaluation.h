@@ -7,9 +7,12 @@
 #include <vector>
 
 #include "actor/sim/env_config.h"
+#include "actor/sim/imitation_env.h"
 #include "common/wire.h"
 
 namespace ragdoll::actor {
+
+class RolloutWorker;
 
 struct EvaluationResult {
   int episodes = 0;
@@ -17,16 +20,19 @@ struct EvaluationResult {
   double normalized_return = 0;
   double episode_length = 0;  // steps
   double fall_rate = 0;
-  double rotation = 0, velocity = 0, end_effector = 0, com = 0, root = 0;
-  // Steering: the task term and the per-step speed (m/s) and heading (rad) errors.
-  bool steering = false;
-  double task = 0, speed_error = 0, heading_error = 0;
+  // The environment's episode figures (its spec's names, units and count of reward terms) and
+  // their means: the reward terms go under "reward_terms", the task's own figures under the
+  // task's name, those in radians as name_deg in degrees.
+  sim::EnvSpec spec;
+  std::vector<double> figures;
   // With push trials, they go under "perturbation".
   std::string ToJson(const struct RobustnessResult* pushes = nullptr) const;
 };
 
 EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
                           int episodes, uint64_t seed);
+// The same with a worker that has its policy (episodes of its environment 0).
+EvaluationResult Evaluate(RolloutWorker& worker, int episodes);
 
 // Push trials: from a random phase, the deterministic policy runs `settle` seconds, a body is
 // pushed horizontally for `duration` seconds with a force of impulse / duration, and the trial

@@ -4,38 +4,39 @@
 #include <stdexcept>
 
 #include "actor/sim/motion_set.h"
+#include "actor/sim/steering_task.h"
 
 namespace ragdoll::actor {
 namespace {
 
 constexpr double kLogSqrt2Pi = 0.91893853320467274178;
 
-v1::EpisodeSummary Summary(const sim::EpisodeStats& e) {
+v1::EpisodeSummary Summary(const sim::EnvSpec& spec, const sim::EpisodeStats& e) {
   v1::EpisodeSummary s;
   s.set_episode_return(e.episode_return);
   s.set_length(e.length);
   s.set_normalized_return(e.normalized_return);
-  s.set_rotation(e.mean_terms.rotation);
-  s.set_velocity(e.mean_terms.velocity);
-  s.set_end_effector(e.mean_terms.end_effector);
-  s.set_com(e.mean_terms.com);
-  s.set_root(e.mean_terms.root);
   s.set_fell(e.fell());
-  s.set_task(e.mean_terms.task);
-  s.set_speed_error(e.speed_error);
-  s.set_heading_error(e.heading_error);
+  for (size_t i = 0; i < e.figures.size(); ++i) {
+    v1::Figure* f = s.add_figures();
+    f->set_name(spec.figure_names[i]);
+    f->set_value(e.figures[i]);
+  }
   return s;
 }
 
 }  // namespace
 
 RolloutWorker::RolloutWorker(const sim::EnvConfig& config, int environments, int time_horizon,
-                             uint64_t seed, std::string actor_id)
+                             uint64_t seed, std::string actor_id, const TaskFactory& make_task)
     : time_horizon_(time_horizon), actor_id_(std::move(actor_id)), noise_(seed * 7919 + 1) {
   auto character = sim::Character::Load(config.character, config.physics_dt());
   auto motions = sim::LoadMotionSet(config, *character);
+  sim::EnvConfig resolved = config;
+  sim::ResolveAllowedContacts(*motions, *character, &resolved);
   for (int i = 0; i < environments; ++i) {
-    envs_.push_back(std::make_unique<sim::ImitationEnv>(character, motions, config, seed + i));
+    envs_.push_back(std::make_unique<sim::ImitationEnv>(character, motions, resolved, seed + i,
+                                                        make_task ? make_task() : nullptr));
   }
   const int O = spec().observation_size;
   observations_.resize(static_cast<size_t>(environments) * O);
@@ -113,7 +114,7 @@ void RolloutWorker::ResetFirst(double phase) {
 }
 
 void RolloutWorker::SetCommandFirst(int entry) {
-  envs_[0]->SetCommand(entry);
+  sim::Steering(*envs_[0]).SetCommand(*envs_[0], entry);
   envs_[0]->Observe(observations_.data());
 }
 
@@ -141,7 +142,7 @@ std::vector<v1::TrajectorySegment> RolloutWorker::Collect() {
       term[k].push_back(r.terminated ? 1 : 0);
       trunc[k].push_back(r.truncated ? 1 : 0);
       if (r.terminated || r.truncated) {
-        episodes[k].push_back(Summary(envs_[k]->episode()));
+        episodes[k].push_back(Summary(spec(), envs_[k]->episode()));
         // The segment's bootstrap row (after the last step) or an inner truncation's final
         // observation is the one before the reset.
         if (t == T - 1) {

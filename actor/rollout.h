@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -18,9 +19,11 @@ namespace ragdoll::actor {
 
 class RolloutWorker {
  public:
+  // A task for each environment instead of the config's (MakeTask).
+  using TaskFactory = std::function<std::unique_ptr<sim::Task>()>;
   // `seed` seeds the environments (seed, seed + 1, ...) and the action noise.
   RolloutWorker(const sim::EnvConfig& config, int environments, int time_horizon, uint64_t seed,
-                std::string actor_id);
+                std::string actor_id, const TaskFactory& make_task = nullptr);
 
   const sim::EnvSpec& spec() const { return envs_.front()->spec(); }
   int environments() const { return static_cast<int>(envs_.size()); }

@@ -295,8 +295,8 @@ int ExportRun(const ExportOptions& o, const TrainedPolicy& p) {
       config.replace(at, path.size(), relative);
     }
   }
-  actor::RolloutWorker probe(p.experiment.environment, 1, 1, 0, "probe");
-  learner::Learner l(p.experiment.trainer, probe.spec().observation_size, probe.spec().action_size);
+  const sim::EnvSpec spec = sim::MakeEnvSpec(p.experiment.environment);
+  learner::Learner l(p.experiment.trainer, spec.observation_size, spec.action_size);
   l.Load(p.checkpoint);
   const std::string bytes = l.SaveToBytes(config, /*with_optimizer=*/false);
   fs::create_directories(out / "checkpoints");

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "actor/rollout.h"
+#include "actor/sim/steering_task.h"
 #include "cli/render/renderer.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
@@ -104,6 +105,7 @@ class PlaySession {
         push_ticks_total_(std::max(1, static_cast<int>(std::lround(o.push_duration / dt_)))),
         worker_(env, 1, 1, o.seed, "play"),
         e_(worker_.environment(0)),
+        steering_(sim::Steering(e_)),
         motions_(e_.motion_set()),
         model_(e_.character().model()),
         root_(e_.character().root_body()),
@@ -206,7 +208,7 @@ class PlaySession {
     if (r.terminated) {
       ++falls_;
       std::fprintf(stderr, "play: fell (%s) after %.1f s; restarting\n",
-                   sim::EpisodeEndName(e_.episode().end), e_.episode_time());
+                   sim::EpisodeEndName(e_.episode().end), steering_.episode_time());
       pause_left_ = o_.fall_pause;
       push_ticks_ = 0;
       if (pause_left_ <= 0) Reset();
@@ -216,13 +218,13 @@ class PlaySession {
   }
 
   void LogStep(const sim::StepResult& r) {
-    const sim::Vec3 v = e_.TravelVelocity();
+    const sim::Vec3 v = steering_.TravelVelocity();
     std::fprintf(log_.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n",
                  (ticks_ + 1) * dt_, SecondsSince(start_), episode_,
                  motions_.entry(command_).name.c_str(),
                  motions_.entry(e_.reference_entry()).name.c_str(), e_.data().qpos[0],
-                 e_.data().qpos[1], e_.heading(), e_.desired_heading(), v[0], v[1], e_.SpeedError(),
-                 e_.HeadingError(), r.terminated ? 1 : 0);
+                 e_.data().qpos[1], e_.heading(), steering_.desired_heading(), v[0], v[1],
+                 steering_.SpeedError(), steering_.HeadingError(e_), r.terminated ? 1 : 0);
   }
 
   // The heads-up figures, over the last second.
@@ -235,7 +237,7 @@ class PlaySession {
   }
 
   std::string Hud() const {
-    const sim::Vec3 v = e_.TravelVelocity();
+    const sim::Vec3 v = steering_.TravelVelocity();
     std::string name = motions_.entry(command_).name;
     const std::string& clip = motions_.entry(e_.reference_entry()).name;
     if (clip != name) name += " via " + clip;  // a transition clip plays
@@ -243,7 +245,7 @@ class PlaySession {
     std::snprintf(text, sizeof(text),
                   "command %s\nspeed %.2f m/s\nheading %.0f deg, desired %.0f deg\npolicy v%lld",
                   name.c_str(), std::hypot(v[0], v[1]), Degrees(e_.heading()),
-                  Degrees(e_.desired_heading()), static_cast<long long>(policy_version_));
+                  Degrees(steering_.desired_heading()), static_cast<long long>(policy_version_));
     std::string caption = text;
     if (window_start_ > 0) {  // measured over a second at least
       std::snprintf(text, sizeof(text), "\n%.0f fps, real time x%.2f", fps_, realtime_);
@@ -292,6 +294,7 @@ class PlaySession {
   const int push_ticks_total_;
   actor::RolloutWorker worker_;
   sim::ImitationEnv& e_;
+  const sim::SteeringTask& steering_;
   const sim::MotionSet& motions_;
   const mjModel* model_;
   const int root_;

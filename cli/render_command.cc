@@ -11,6 +11,7 @@
 #include "actor/command_evaluation.h"
 #include "actor/rollout.h"
 #include "actor/sim/motion_io.h"
+#include "actor/sim/steering_task.h"
 #include "cli/render/renderer.h"
 #include "cli/render/video.h"
 #include "cli/trained_policy.h"
@@ -63,11 +64,12 @@ std::string Caption(const std::string& clip, double t, const std::string& policy
 
 // The command, and how well the character follows it.
 std::string SteeringCaption(const sim::ImitationEnv& e) {
-  const sim::Vec3 v = e.TravelVelocity();
+  const sim::SteeringTask& steering = sim::Steering(e);
+  const sim::Vec3 v = steering.TravelVelocity();
   char text[256];
   std::snprintf(text, sizeof(text), "\ncommand %s\nspeed %.2f m/s, heading error %.0f deg",
-                e.motion_set().entry(e.command_entry()).name.c_str(), std::hypot(v[0], v[1]),
-                e.HeadingError() * 180 / M_PI);
+                e.motion_set().entry(steering.command_entry()).name.c_str(), std::hypot(v[0], v[1]),
+                steering.HeadingError(e) * 180 / M_PI);
   return text;
 }
 

@@ -9,16 +9,20 @@
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <set>
 
+#include "cli/report_assets.h"
 #include "common/config_section.h"
 
 namespace ragdoll::cli {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The imitation reward terms in the environment's order (the evaluation JSON sorts its keys).
+const char* const kImitationTerms[] = {"rotation", "velocity", "end_effector", "com", "root"};
 
 std::string Trim(const std::string& s) {
   size_t a = s.find_first_not_of(" \t\r");
@@ -100,35 +104,53 @@ std::string Clock(double seconds) {
 // --- the curves ---------------------------------------------------------------------------------
 
 struct CurveSpec {
-  const char* column;
-  const char* title;
-  const char* y_label;
+  std::string column;
+  std::string title;
+  std::string y_label;
   double y_max;  // a bounded quantity's fixed top; NaN: from the data
+  bool always;   // plotted even when no run has a non-zero value (a task's figures are not)
 };
 
-// Every quantity is an episode statistic: rows without finished episodes have none.
+// Every quantity is an episode statistic: rows without finished episodes have none. The figures
+// the report has titles for; any other figure column gets a plain one (FigureCurves).
 const CurveSpec kCurves[] = {
     {"normalized_return", "normalised return (1 = reference followed for the whole episode)",
-     "normalised return", 1.0},
-    {"fall_rate", "fall rate (episodes ended by a fall)", "fraction of episodes", 1.0},
-    {"episode_length", "episode length", "control steps", kNaN},
-    {"rotation", "reward term: rotation (joint rotations)", "per-step mean, 0-1", 1.0},
-    {"velocity", "reward term: velocity (joint velocities)", "per-step mean, 0-1", 1.0},
-    {"end_effector", "reward term: end_effector (hands and feet)", "per-step mean, 0-1", 1.0},
-    {"com", "reward term: com (centre of mass)", "per-step mean, 0-1", 1.0},
-    {"root", "reward term: root (root pose and velocity)", "per-step mean, 0-1", 1.0},
-    // The steering task's, plotted only when some run has it.
-    {"task", "steering task term (velocity and heading tracking, weighted)", "per-step mean", kNaN},
-    {"speed_error", "steering: speed error |v - v*|", "m/s", kNaN},
-    {"heading_error", "steering: heading error", "rad", kNaN},
+     "normalised return", 1.0, true},
+    {"fall_rate", "fall rate (episodes ended by a fall)", "fraction of episodes", 1.0, true},
+    {"episode_length", "episode length", "control steps", kNaN, true},
+    {"rotation", "reward term: rotation (joint rotations)", "per-step mean, 0-1", 1.0, true},
+    {"velocity", "reward term: velocity (joint velocities)", "per-step mean, 0-1", 1.0, true},
+    {"end_effector", "reward term: end_effector (hands and feet)", "per-step mean, 0-1", 1.0, true},
+    {"com", "reward term: com (centre of mass)", "per-step mean, 0-1", 1.0, true},
+    {"root", "reward term: root (root pose and velocity)", "per-step mean, 0-1", 1.0, true},
+    {"task", "steering task term (velocity and heading tracking, weighted)", "per-step mean", kNaN,
+     false},
+    {"speed_error", "steering: speed error |v - v*|", "m/s", kNaN, false},
+    {"heading_error", "steering: heading error", "rad", kNaN, false},
 };
 
-// Whether a curve has anything to show: the steering curves only for steering runs.
-bool Shown(const CurveSpec& spec, const std::vector<RunReport>& runs) {
-  if (std::string(spec.column) != "task" && std::string(spec.column) != "speed_error" &&
-      std::string(spec.column) != "heading_error") {
-    return true;
+// The curves to consider: kCurves, then a curve for every other episode figure of some run (the
+// learner writes its figures after its own last column, update_kl).
+std::vector<CurveSpec> FigureCurves(const std::vector<RunReport>& runs) {
+  std::vector<CurveSpec> curves(std::begin(kCurves), std::end(kCurves));
+  for (const auto& run : runs) {
+    const auto& columns = run.metrics.columns;
+    auto figure = std::find(columns.begin(), columns.end(), "update_kl");
+    if (figure == columns.end()) continue;
+    for (++figure; figure != columns.end(); ++figure) {
+      const std::string& name = *figure;
+      if (std::none_of(curves.begin(), curves.end(),
+                       [&](const CurveSpec& c) { return c.column == name; })) {
+        curves.push_back({name, "episode figure: " + name, "per-step mean", kNaN, false});
+      }
+    }
   }
+  return curves;
+}
+
+// Whether a curve has anything to show: a task's figures only for runs with that task.
+bool Shown(const CurveSpec& spec, const std::vector<RunReport>& runs) {
+  if (spec.always) return true;
   for (const auto& run : runs) {
     if (const auto* y = run.metrics.Column(spec.column)) {
       for (double v : *y) {
@@ -372,113 +394,6 @@ double LastValue(const MetricsTable& m, const std::string& column) {
   return c && m.rows > 0 ? c->back() : kNaN;
 }
 
-const char* kStyle = R"(
-body { font-family: "DejaVu Sans", system-ui, sans-serif; color: #222; margin: 24px auto;
-       max-width: 1240px; padding: 0 16px; }
-h1 { font-size: 22px; margin-bottom: 4px; }
-h2 { font-size: 17px; margin-top: 28px; border-bottom: 1px solid #ddd; padding-bottom: 4px; }
-p.sub, p.hint, footer { color: #666; font-size: 13px; }
-table { border-collapse: collapse; font-size: 13px; }
-th, td { padding: 4px 10px; border-bottom: 1px solid #eee; text-align: left; white-space: nowrap; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
-td.wrap { white-space: normal; word-break: break-all; max-width: 420px; }
-.swatch { display: inline-block; width: 14px; height: 14px; border-radius: 3px;
-          vertical-align: middle; }
-.note { background: #fff7e0; border-left: 3px solid #e0b000; padding: 6px 10px; font-size: 13px; }
-code, pre { font-family: "DejaVu Sans Mono", monospace; font-size: 12px; }
-pre { background: #f6f6f6; padding: 8px; overflow-x: auto; }
-.gifs { display: flex; flex-wrap: wrap; gap: 16px; }
-figure { margin: 0; }
-figcaption { font-size: 12px; color: #444; max-width: 360px; }
-#curves svg .hidden { display: none; }
-#curves svg .legend-item { cursor: pointer; }
-#curves svg .legend-item.off { opacity: 0.3; }
-#readout { position: fixed; display: none; pointer-events: none; background: rgba(255,255,255,0.95);
-           border: 1px solid #aaa; border-radius: 4px; padding: 4px 8px; font-size: 12px; }
-)";
-
-// Legend toggles (click a run to hide or show it everywhere) and a hover readout of the values
-// under the pointer. It logs one line when set up, which the integration test looks for.
-const char* kScript = R"(
-(function () {
-  var svg = document.querySelector('#curves svg');
-  if (!svg) { console.log('ragdoll report: no curves'); return; }
-  var hidden = {};
-  function apply() {
-    svg.querySelectorAll('[data-run]').forEach(function (el) {
-      var off = hidden[el.getAttribute('data-run')] === true;
-      if (el.classList.contains('legend-item')) el.classList.toggle('off', off);
-      else el.classList.toggle('hidden', off);
-    });
-  }
-  svg.querySelectorAll('.legend-item').forEach(function (item) {
-    item.addEventListener('click', function () {
-      var run = item.getAttribute('data-run');
-      hidden[run] = !hidden[run];
-      apply();
-    });
-  });
-  function runName(run) {
-    var t = svg.querySelector('.legend-item[data-run="' + run + '"] text');
-    return t ? t.textContent : 'run ' + run;
-  }
-  function short(v) { return Math.abs(v) >= 1000 ? Math.round(v).toString() : v.toPrecision(3); }
-  var readout = document.getElementById('readout');
-  var panels = svg.querySelectorAll('g.panel');
-  var lines = 0;
-  panels.forEach(function (panel) {
-    var d = function (k) { return parseFloat(panel.getAttribute('data-' + k)); };
-    var left = d('left'), right = d('right'), top = d('top'), bottom = d('bottom');
-    var xMax = d('x-max'), yMax = d('y-max');
-    var series = Array.prototype.map.call(panel.querySelectorAll('polyline'), function (pl) {
-      lines++;
-      var pts = pl.getAttribute('points').trim().split(/\s+/).map(function (p) {
-        var xy = p.split(','); return [parseFloat(xy[0]), parseFloat(xy[1])];
-      });
-      return { run: pl.getAttribute('data-run'), points: pts };
-    });
-    var cursor = document.createElementNS(svg.namespaceURI, 'line');
-    cursor.setAttribute('y1', top); cursor.setAttribute('y2', bottom);
-    cursor.setAttribute('stroke', '#888'); cursor.setAttribute('stroke-dasharray', '3 3');
-    cursor.style.display = 'none';
-    panel.appendChild(cursor);
-    var frame = panel.querySelector('rect.frame');
-    frame.addEventListener('mousemove', function (ev) {
-      var p = svg.createSVGPoint(); p.x = ev.clientX; p.y = ev.clientY;
-      var q = p.matrixTransform(panel.getScreenCTM().inverse());
-      var best = {};
-      series.forEach(function (s) {
-        if (hidden[s.run]) return;
-        s.points.forEach(function (pt) {
-          var dist = Math.abs(pt[0] - q.x);
-          if (!best[s.run] || dist < best[s.run].dist) best[s.run] = { dist: dist, pt: pt };
-        });
-      });
-      var x = (q.x - left) / (right - left) * xMax;
-      var text = panel.getAttribute('data-title') + '<br>at ' + short(x) + ' ' +
-          panel.getAttribute('data-x-unit');
-      Object.keys(best).forEach(function (run) {
-        var pt = best[run].pt;
-        var xv = (pt[0] - left) / (right - left) * xMax;
-        var yv = (bottom - pt[1]) / (bottom - top) * yMax;
-        text += '<br>' + runName(run).replace(/</g, '&lt;') + ': ' + short(yv) + ' (at ' + short(xv) + ')';
-      });
-      readout.innerHTML = text;
-      readout.style.display = 'block';
-      readout.style.left = (ev.clientX + 14) + 'px';
-      readout.style.top = (ev.clientY + 14) + 'px';
-      cursor.setAttribute('x1', q.x); cursor.setAttribute('x2', q.x);
-      cursor.style.display = '';
-    });
-    frame.addEventListener('mouseleave', function () {
-      readout.style.display = 'none';
-      cursor.style.display = 'none';
-    });
-  });
-  console.log('ragdoll report: ' + panels.length + ' plots, ' + lines + ' lines');
-})();
-)";
-
 }  // namespace
 
 const std::vector<double>* MetricsTable::Column(const std::string& name) const {
@@ -577,12 +492,19 @@ EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string
     s.normalized_return = j.at("normalized_return").get<double>();
     s.episode_length = j.at("episode_length").get<double>();
     s.fall_rate = j.at("fall_rate").get<double>();
-    const auto& terms = j.at("reward_terms");
-    s.rotation = terms.at("rotation").get<double>();
-    s.velocity = terms.at("velocity").get<double>();
-    s.end_effector = terms.at("end_effector").get<double>();
-    s.com = terms.at("com").get<double>();
-    s.root = terms.at("root").get<double>();
+    // The imitation terms first, in the environment's order; a task's after them.
+    std::vector<std::pair<std::string, double>> imitation, others;
+    for (const auto& [name, value] : j.at("reward_terms").items()) {
+      const auto known = std::find(std::begin(kImitationTerms), std::end(kImitationTerms), name);
+      (known != std::end(kImitationTerms) ? imitation : others)
+          .emplace_back(name, value.get<double>());
+    }
+    std::sort(imitation.begin(), imitation.end(), [](const auto& a, const auto& b) {
+      return std::find(std::begin(kImitationTerms), std::end(kImitationTerms), a.first) <
+             std::find(std::begin(kImitationTerms), std::end(kImitationTerms), b.first);
+    });
+    s.reward_terms = std::move(imitation);
+    s.reward_terms.insert(s.reward_terms.end(), others.begin(), others.end());
     s.policy_version = j.value("policy_version", int64_t{-1});
     s.samples = j.value("samples", int64_t{-1});
     s.checkpoint = j.value("checkpoint", std::string());
@@ -712,8 +634,9 @@ std::string CurvesSvg(const std::vector<RunReport>& runs) {
   }
   const double headings_top = ly + 14;
   const double plots_top = headings_top + kHeadingRow;
+  const std::vector<CurveSpec> figure_curves = FigureCurves(runs);
   std::vector<const CurveSpec*> shown;
-  for (const CurveSpec& spec : kCurves) {
+  for (const CurveSpec& spec : figure_curves) {
     if (Shown(spec, runs)) shown.push_back(&spec);
   }
   const double height = plots_top + kCellHeight * static_cast<double>(shown.size());
@@ -739,16 +662,11 @@ std::string CurvesSvg(const std::vector<RunReport>& runs) {
   return svg;
 }
 
-std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& curves_svg,
-                       const std::string& generated) {
-  std::string ids;
-  for (const auto& run : runs) ids += (ids.empty() ? "" : ", ") + run.id;
-  std::string h = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
-  h += "<title>ragdoll report: " + Escape(ids) + "</title>\n<style>" + kStyle + "</style>\n";
-  h += "</head>\n<body>\n<h1>ragdoll report</h1>\n<p class=\"sub\">" + std::to_string(runs.size()) +
-       (runs.size() == 1 ? " run" : " runs") + ": " + Escape(ids) + "</p>\n";
+namespace {
 
-  // Header: one row per run.
+// One row per run: its clip, samples, wall time, updates and latest returns, then notes.
+std::string RunsTable(const std::vector<RunReport>& runs) {
+  std::string h;
   h += "<table class=\"runs\">\n<tr><th></th><th>run</th><th>clip</th><th>samples</th>"
        "<th>wall time</th><th>PPO updates</th><th>latest normalised return</th>"
        "<th>evaluated normalised return</th></tr>\n";
@@ -778,13 +696,22 @@ std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& cu
   }
   h += "</table>\n";
   for (const auto& n : notes) h += "<p class=\"note\">" + Escape(n) + "</p>\n";
+  return h;
+}
 
+// The training curves (CurvesSvg), with how to read them.
+std::string CurvesSection(const std::string& curves_svg) {
+  std::string h;
   h += "<h2>Training curves</h2>\n<p class=\"hint\">One point per PPO update: the mean over the "
        "episodes that finished since the previous update. Click a run in the legend to hide or "
        "show it; hover a plot to read its values.</p>\n";
   h += "<div id=\"curves\">\n" + curves_svg + "</div>\n";
+  return h;
+}
 
-  // Evaluation: quantities as rows, runs with an eval.json as columns.
+// The latest evaluations: quantities as rows, runs with an eval.json as columns.
+std::string EvaluationSection(const std::vector<RunReport>& runs) {
+  std::string h;
   h += "<h2>Latest evaluation</h2>\n";
   std::vector<size_t> evaluated;
   for (size_t r = 0; r < runs.size(); ++r) {
@@ -809,11 +736,22 @@ std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& cu
     row("episode length (steps)", [](E e) { return Format("%.1f", e.episode_length); });
     row("episodes", [](E e) { return std::to_string(e.episodes); });
     row("mean return", [](E e) { return Format("%.2f", e.mean_return); });
-    row("rotation term", [](E e) { return Format("%.3f", e.rotation); });
-    row("velocity term", [](E e) { return Format("%.3f", e.velocity); });
-    row("end_effector term", [](E e) { return Format("%.3f", e.end_effector); });
-    row("com term", [](E e) { return Format("%.3f", e.com); });
-    row("root term", [](E e) { return Format("%.3f", e.root); });
+    std::vector<std::string> terms;  // every run's, in the first run's order
+    for (size_t r : evaluated) {
+      for (const auto& term : runs[r].evaluation->reward_terms) {
+        if (std::find(terms.begin(), terms.end(), term.first) == terms.end()) {
+          terms.push_back(term.first);
+        }
+      }
+    }
+    for (const std::string& term : terms) {
+      row(Escape(term) + " term", [&term](E e) {
+        for (const auto& [name, value] : e.reward_terms) {
+          if (name == term) return Format("%.3f", value);
+        }
+        return std::string("—");
+      });
+    }
     if (std::any_of(evaluated.begin(), evaluated.end(),
                     [&](size_t r) { return runs[r].evaluation->pushes; })) {
       row("largest push survived in 90 % (N s)", [](E e) {
@@ -849,7 +787,12 @@ std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& cu
          "</code> (it evaluates the newest checkpoint and writes " + Escape(run.path) +
          "/eval.json).</p>\n";
   }
+  return h;
+}
 
+// Each run's newest policy beside its reference, as rendered (RunReport::gif).
+std::string GifsSection(const std::vector<RunReport>& runs) {
+  std::string h;
   h += "<h2>Newest policy beside its reference</h2>\n<div class=\"gifs\">\n";
   for (size_t r = 0; r < runs.size(); ++r) {
     const RunReport& run = runs[r];
@@ -865,7 +808,12 @@ std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& cu
          "</figcaption></figure>\n";
   }
   h += "</div>\n";
+  return h;
+}
 
+// The settings that differ between the runs, then each run's whole config.yaml.
+std::string ConfigurationSection(const std::vector<RunReport>& runs) {
+  std::string h;
   h += "<h2>Configuration</h2>\n";
   if (runs.size() > 1) {
     std::vector<std::string> texts;
@@ -893,9 +841,27 @@ std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& cu
          (run.config_text.empty() ? std::string("(none)") : Escape(run.config_text)) +
          "</pre></details>\n";
   }
+  return h;
+}
 
+}  // namespace
+
+std::string ReportHtml(const std::vector<RunReport>& runs, const std::string& curves_svg,
+                       const std::string& generated) {
+  std::string ids;
+  for (const auto& run : runs) ids += (ids.empty() ? "" : ", ") + run.id;
+  std::string h = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  h += "<title>ragdoll report: " + Escape(ids) + "</title>\n<style>" + kReportStyle + "</style>\n";
+  h += "</head>\n<body>\n<h1>ragdoll report</h1>\n<p class=\"sub\">" + std::to_string(runs.size()) +
+       (runs.size() == 1 ? " run" : " runs") + ": " + Escape(ids) + "</p>\n";
+
+  h += RunsTable(runs);
+  h += CurvesSection(curves_svg);
+  h += EvaluationSection(runs);
+  h += GifsSection(runs);
+  h += ConfigurationSection(runs);
   h += "<footer><p>" + Escape(generated) + "</p></footer>\n<div id=\"readout\"></div>\n";
-  h += std::string("<script>") + kScript + "</script>\n</body>\n</html>\n";
+  h += std::string("<script>") + kReportScript + "</script>\n</body>\n</html>\n";
   return h;
 }
 

@@ -34,7 +34,9 @@ MetricsTable ParseMetricsCsv(const std::string& text, const std::string& origin)
 struct EvaluationSummary {
   int episodes = 0;
   double mean_return = 0, normalized_return = 0, episode_length = 0, fall_rate = 0;
-  double rotation = 0, velocity = 0, end_effector = 0, com = 0, root = 0;
+  // Each reward term's mean by name (the imitation terms, and a task's), in the order the table
+  // shows them: the imitation terms first, as the environment lists them.
+  std::vector<std::pair<std::string, double>> reward_terms;
   int64_t policy_version = -1, samples = -1;
   std::string checkpoint;
   double survived_90 = -1;  // with push trials: largest impulse survived in 90 %, N s

@@ -6,7 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "actor/rollout.h"
+#include "actor/actor_process.h"
+#include "actor/sim/imitation_env.h"
 #include "broker/broker.h"
 #include "cli/experiment.h"
 #include "common/curve.h"
@@ -76,14 +77,16 @@ int RunActorRole(const RoleOptions& o, const Experiment& e, const std::atomic<bo
 }
 
 int RunLearnerRole(const RoleOptions& o, const Experiment& e, const std::atomic<bool>& stop) {
-  actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
+  const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
   learner::LearnerProcessConfig l;
   l.run_id = o.run_id;
   l.run_dir = o.run_dir.empty() ? "runs/" + o.run_id : o.run_dir;
   l.label = e.name;
   l.config_text = e.text;
-  l.observation_size = probe.spec().observation_size;
-  l.action_size = probe.spec().action_size;
+  l.observation_size = spec.observation_size;
+  l.action_size = spec.action_size;
+  l.figure_names = spec.figure_names;
+  l.reward_terms = spec.reward_terms;
   l.resume = o.resume;
   l.init_from = o.init_from;
   l.metrics_bind = e.metrics.bind;

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "actor/rollout.h"
+#include "actor/sim/imitation_env.h"
 #include "common/config_section.h"
 #include "learner/learner.h"
 #include "learner/learner_process.h"
@@ -28,8 +28,8 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   // Checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml.
   auto run = std::filesystem::path(p.checkpoint).parent_path().parent_path();
   p.experiment = ReadExperiment((run / "config.yaml").string());
-  actor::RolloutWorker probe(p.experiment.environment, 1, 1, 0, "probe");
-  learner::Learner l(p.experiment.trainer, probe.spec().observation_size, probe.spec().action_size);
+  const sim::EnvSpec spec = sim::MakeEnvSpec(p.experiment.environment);
+  learner::Learner l(p.experiment.trainer, spec.observation_size, spec.action_size);
   l.Load(p.checkpoint);
   p.snapshot = l.Snapshot();
   p.version = l.version();

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "actor/rollout.h"
+#include "actor/sim/imitation_env.h"
 #include "cli/experiment.h"
 #include "learner/checkpoint_file.h"
 #include "learner/learner.h"
@@ -64,8 +64,8 @@ std::function<int()> AddVerifyCommand(CLI::App& app) {
           // <run>/config.yaml.
           Experiment e =
               ReadExperiment((file.parent_path().parent_path() / "config.yaml").string());
-          actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
-          learner::Learner l(e.trainer, probe.spec().observation_size, probe.spec().action_size);
+          const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
+          learner::Learner l(e.trainer, spec.observation_size, spec.action_size);
           l.Load(file.string());
           const std::string non_finite = NonFinite(l);
           if (!non_finite.empty()) {

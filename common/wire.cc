@@ -151,6 +151,11 @@ Verdict ReadMessage(const void* data, size_t size, size_t max_message_bytes, v1:
 
 namespace {
 
+// Bounds on an episode summary's figures: an environment reports about ten, each named by a word
+// or two; anything beyond is a broken or hostile sender.
+constexpr int kMaxEpisodeFigures = 64;
+constexpr size_t kMaxFigureName = 64;
+
 v1::Tensor MakeTensor(v1::Tensor::DType dtype, const void* data,
                       const std::vector<int64_t>& shape) {
   v1::Tensor t;
@@ -277,6 +282,19 @@ Verdict CheckSegment(const v1::TrajectorySegment& s, int observation_size, int a
       return Reject(Rejection::kNonFinite, "episode summary with a non-finite return");
     }
     if (e.length() < 0) return Reject(Rejection::kShape, "episode summary with a negative length");
+    if (e.figures_size() > kMaxEpisodeFigures) {
+      return Reject(Rejection::kShape, "episode summary with more than " +
+                                           std::to_string(kMaxEpisodeFigures) + " figures");
+    }
+    for (const auto& f : e.figures()) {
+      if (f.name().empty() || f.name().size() > kMaxFigureName) {
+        return Reject(Rejection::kShape, "episode figure with an empty name or one longer than " +
+                                             std::to_string(kMaxFigureName) + " bytes");
+      }
+      if (!std::isfinite(f.value())) {
+        return Reject(Rejection::kNonFinite, "episode figure '" + f.name() + "' is not finite");
+      }
+    }
   }
   return {};
 }

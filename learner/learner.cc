@@ -2,6 +2,7 @@
 
 #include "learner/checkpoint_file.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,14 +23,15 @@ void EpisodeStatsSum::Add(const v1::EpisodeSummary& e) {
   normalized_return += e.normalized_return();
   length += e.length();
   falls += e.fell() ? 1 : 0;
-  rotation += e.rotation();
-  velocity += e.velocity();
-  end_effector += e.end_effector();
-  com += e.com();
-  root += e.root();
-  task += e.task();
-  speed_error += e.speed_error();
-  heading_error += e.heading_error();
+  for (int i = 0; i < e.figures_size(); ++i) {
+    const v1::Figure& f = e.figures(i);
+    // Actors send the figures in the spec's order: look further only when they do not.
+    size_t k = static_cast<size_t>(i);
+    if (k >= figure_names.size() || figure_names[k] != f.name()) {
+      k = std::find(figure_names.begin(), figure_names.end(), f.name()) - figure_names.begin();
+    }
+    if (k < figures.size()) figures[k] += f.value();
+  }
 }
 
 Learner::Learner(const TrainerConfig& config, int observation_size, int action_size,
@@ -385,18 +387,20 @@ UpdateStats Learner::Update() {
   int64_t group_samples = B;
   if (group_ != nullptr) {
     EpisodeStatsSum& e = episodes_;
-    torch::Tensor sums =
-        torch::tensor({static_cast<double>(B), static_cast<double>(e.episodes), e.episode_return,
-                       e.normalized_return, e.length, e.falls, e.rotation, e.velocity,
-                       e.end_effector, e.com, e.root, e.task, e.speed_error, e.heading_error},
-                      torch::kFloat64);
+    std::vector<double> local = {static_cast<double>(B),
+                                 static_cast<double>(e.episodes),
+                                 e.episode_return,
+                                 e.normalized_return,
+                                 e.length,
+                                 e.falls};
+    local.insert(local.end(), e.figures.begin(), e.figures.end());
+    torch::Tensor sums = torch::tensor(local, torch::kFloat64);
     group_->Sum(sums);
     group_samples = static_cast<int64_t>(sums[0].item<double>());
     e.episodes = static_cast<int64_t>(sums[1].item<double>());
-    double* fields[] = {&e.episode_return, &e.normalized_return, &e.length, &e.falls, &e.rotation,
-                        &e.velocity,       &e.end_effector,      &e.com,    &e.root,  &e.task,
-                        &e.speed_error,    &e.heading_error};
-    for (int i = 0; i < 12; ++i) *fields[i] = sums[2 + i].item<double>();
+    double* fields[] = {&e.episode_return, &e.normalized_return, &e.length, &e.falls};
+    for (int i = 0; i < 4; ++i) *fields[i] = sums[2 + i].item<double>();
+    for (size_t i = 0; i < e.figures.size(); ++i) e.figures[i] = sums[6 + i].item<double>();
   }
   samples_ += group_samples;
   stats.samples = group_samples;

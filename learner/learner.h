@@ -35,10 +35,15 @@ struct UpdateStats {
 
 // Episode statistics reported by actors since the last update.
 struct EpisodeStatsSum {
+  EpisodeStatsSum() = default;
+  // Sums the episode figures of these names (the environment's spec), in this order; a figure
+  // of another name is ignored.
+  explicit EpisodeStatsSum(std::vector<std::string> names)
+      : figure_names(std::move(names)), figures(figure_names.size(), 0.0) {}
   int64_t episodes = 0;
   double episode_return = 0, normalized_return = 0, length = 0, falls = 0;
-  double rotation = 0, velocity = 0, end_effector = 0, com = 0, root = 0;
-  double task = 0, speed_error = 0, heading_error = 0;  // the steering task's
+  std::vector<std::string> figure_names;
+  std::vector<double> figures;  // sums, as figure_names names them
   void Add(const v1::EpisodeSummary& e);
   double Mean(double sum) const { return episodes ? sum / episodes : 0.0; }
 };
@@ -112,7 +117,12 @@ class Learner {
   const RunningStats& stats() const { return stats_; }
   const RunningStats& return_stats() const { return return_stats_; }
   const EpisodeStatsSum& episodes() const { return episodes_; }
-  void ResetEpisodeStats() { episodes_ = EpisodeStatsSum(); }
+  void ResetEpisodeStats() { episodes_ = EpisodeStatsSum(episodes_.figure_names); }
+  // The episode figures to sum (the environment's EnvSpec::figure_names); every replica of a
+  // group must be given the same.
+  void SetFigureNames(std::vector<std::string> names) {
+    episodes_ = EpisodeStatsSum(std::move(names));
+  }
   GaussianPolicy& policy() { return policy_; }
   ValueNetwork& critic() { return critic_; }
   torch::optim::Adam& optimizer() { return *optimizer_; }

@@ -11,7 +11,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
+#include <sstream>
+#include <string>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -52,12 +55,63 @@ std::vector<fs::path> Checkpoints(const fs::path& folder) {
   return out;
 }
 
+// The columns of a new metrics.csv: the learner's own, then one per episode figure.
+std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names) {
+  std::vector<std::string> columns = {
+      "iteration",          "version",       "samples",           "elapsed_s",      "samples_per_s",
+      "episodes",           "mean_return",   "normalized_return", "episode_length", "fall_rate",
+      "policy_loss",        "value_loss",    "entropy",           "approx_kl",      "clip_fraction",
+      "explained_variance", "learning_rate", "update_s",          "stale_dropped",  "rejected",
+      "idle_fraction",      "update_kl"};
+  columns.insert(columns.end(), figure_names.begin(), figure_names.end());
+  return columns;
+}
+
 namespace {
+
+// The columns an existing metrics.csv names in its first line.
+std::vector<std::string> CsvHeader(const fs::path& path) {
+  std::ifstream in(path);
+  std::string line, cell;
+  std::getline(in, line);
+  std::vector<std::string> columns;
+  std::istringstream cells(line);
+  while (std::getline(cells, cell, ',')) columns.push_back(cell);
+  return columns;
+}
+
+std::string JoinCells(const std::vector<std::string>& cells) {
+  std::string line;
+  for (const std::string& c : cells) line += (line.empty() ? "" : ",") + c;
+  return line;
+}
+
+}  // namespace
+
+std::string MetricsRow(const std::vector<std::string>& columns,
+                       const std::map<std::string, std::string>& cells) {
+  std::vector<std::string> row;
+  for (const std::string& c : columns) {
+    auto it = cells.find(c);
+    row.push_back(it == cells.end() ? "0" : it->second);
+  }
+  return JoinCells(row);
+}
+
+namespace {
+
+// A value as the metrics.csv writes it (an ostream's default format).
+template <typename T>
+std::string Cell(T value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
 
 // The learner's Prometheus series. Episode and PPO figures are gauges holding the latest PPO
 // iteration's means; totals are counters of this process (a resumed run's totals are gauges).
 struct LearnerMetrics {
-  explicit LearnerMetrics(MetricsEndpoint& m)
+  LearnerMetrics(MetricsEndpoint& m, const std::vector<std::string>& figure_names, int reward_terms)
       : episode_return(
             m.Gauge("ragdoll_episode_return",
                     "Mean undiscounted return of the episodes of the last PPO iteration")),
@@ -103,11 +157,17 @@ struct LearnerMetrics {
                                       "size limit); training went on")),
         idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
                                "Wall time spent waiting for segments (nothing to do)")) {
-    for (const char* term : {"rotation", "velocity", "end_effector", "com", "root", "task"}) {
-      terms.push_back(&m.Gauge("ragdoll_episode_reward_term",
-                               "Mean per-step value (0..1) of one reward term (the imitation "
-                               "terms and the steering task's weighted term), last PPO iteration",
-                               {{"term", term}}));
+    for (int i = 0; i < static_cast<int>(figure_names.size()); ++i) {
+      figures.push_back(
+          i < reward_terms
+              ? &m.Gauge("ragdoll_episode_reward_term",
+                         "Mean per-step value (0..1) of one reward term (the imitation terms and "
+                         "a task's weighted term), last PPO iteration",
+                         {{"term", figure_names[i]}})
+              : &m.Gauge("ragdoll_episode_figure",
+                         "Mean per-step value of one of a task's episode figures (steering: "
+                         "speed_error in m/s, heading_error in rad), last PPO iteration",
+                         {{"figure", figure_names[i]}}));
     }
     for (int r = 1; r <= static_cast<int>(wire::Rejection::kRunId); ++r) {
       rejected.push_back(&m.Counter(
@@ -126,7 +186,7 @@ struct LearnerMetrics {
   prometheus::Gauge &run_samples, &samples_per_second, &version;
   prometheus::Histogram& lag;
   prometheus::Counter &stale, &checkpoints, &checkpoint_failures, &idle_seconds;
-  std::vector<prometheus::Gauge*> terms;
+  std::vector<prometheus::Gauge*> figures;     // as the environment's figure names
   std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
 };
 
@@ -309,6 +369,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   const bool leader = rank == 0;  // publishes snapshots, writes checkpoints and the CSV
   torch::manual_seed(trainer.seed + static_cast<uint64_t>(rank));
   Learner learner(trainer, config.observation_size, config.action_size, group.get());
+  learner.SetFigureNames(config.figure_names);
 
   if (!leader) {
     // Rank 0's state arrives below.
@@ -356,7 +417,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   learner.SyncFromRankZero();
 
   MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
-  LearnerMetrics metrics(endpoint);
+  LearnerMetrics metrics(endpoint, config.figure_names, config.reward_terms);
   metrics.version.Set(static_cast<double>(learner.version()));
   metrics.run_samples.Set(static_cast<double>(learner.samples()));
   const int64_t start_stale = learner.stale_dropped();
@@ -415,15 +476,17 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
   }
   const fs::path csv_path = fs::path(config.run_dir) / "metrics.csv";
   bool new_csv = leader && !fs::exists(csv_path);
+  // A resumed run keeps its file's columns (an older learner's order or figures); a new one
+  // has the fixed columns, then a column per episode figure.
+  std::vector<std::string> csv_columns;
+  if (leader && !new_csv) csv_columns = CsvHeader(csv_path);
+  if (csv_columns.empty()) {
+    csv_columns = MetricsColumns(config.figure_names);
+    new_csv = leader;
+  }
   std::ofstream csv;
   if (leader) csv.open(csv_path, std::ios::app);
-  if (new_csv) {
-    csv << "iteration,version,samples,elapsed_s,samples_per_s,episodes,mean_return,"
-           "normalized_return,episode_length,fall_rate,rotation,velocity,end_effector,com,root,"
-           "policy_loss,value_loss,entropy,approx_kl,clip_fraction,explained_variance,"
-           "learning_rate,update_s,stale_dropped,rejected,idle_fraction,update_kl,task,speed_error,"
-           "heading_error\n";
-  }
+  if (new_csv) csv << JoinCells(csv_columns) << "\n";
 
   const auto start = Clock::now();
   auto last_publish = start, last_iteration = start;
@@ -535,8 +598,9 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       metrics.fall_ratio.Set(e.Mean(e.falls));
       // Totals are the group's: replica 0 counts them, so sums over replicas stay right.
       if (leader) metrics.episodes.Increment(static_cast<double>(e.episodes));
-      const double terms[] = {e.rotation, e.velocity, e.end_effector, e.com, e.root, e.task};
-      for (size_t i = 0; i < metrics.terms.size(); ++i) metrics.terms[i]->Set(e.Mean(terms[i]));
+      for (size_t i = 0; i < metrics.figures.size(); ++i) {
+        metrics.figures[i]->Set(e.Mean(e.figures[i]));
+      }
       metrics.policy_loss.Set(u.policy_loss);
       metrics.value_loss.Set(u.value_loss);
       metrics.entropy.Set(u.entropy);
@@ -552,16 +616,33 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
       metrics.version.Set(static_cast<double>(learner.version()));
       if (leader) {
-        csv << learner.iterations() << "," << learner.version() << "," << learner.samples() << ","
-            << elapsed << "," << u.samples / std::max(iteration_s, 1e-9) << "," << e.episodes << ","
-            << e.Mean(e.episode_return) << "," << e.Mean(e.normalized_return) << ","
-            << e.Mean(e.length) << "," << e.Mean(e.falls) << "," << e.Mean(e.rotation) << ","
-            << e.Mean(e.velocity) << "," << e.Mean(e.end_effector) << "," << e.Mean(e.com) << ","
-            << e.Mean(e.root) << "," << u.policy_loss << "," << u.value_loss << "," << u.entropy
-            << "," << u.approx_kl << "," << u.clip_fraction << "," << u.explained_variance << ","
-            << u.learning_rate << "," << u.seconds << "," << learner.stale_dropped() << ","
-            << rejected_total << "," << idle_fraction << "," << u.update_kl << "," << e.Mean(e.task)
-            << "," << e.Mean(e.speed_error) << "," << e.Mean(e.heading_error) << "\n";
+        std::map<std::string, std::string> row = {
+            {"iteration", Cell(learner.iterations())},
+            {"version", Cell(learner.version())},
+            {"samples", Cell(learner.samples())},
+            {"elapsed_s", Cell(elapsed)},
+            {"samples_per_s", Cell(u.samples / std::max(iteration_s, 1e-9))},
+            {"episodes", Cell(e.episodes)},
+            {"mean_return", Cell(e.Mean(e.episode_return))},
+            {"normalized_return", Cell(e.Mean(e.normalized_return))},
+            {"episode_length", Cell(e.Mean(e.length))},
+            {"fall_rate", Cell(e.Mean(e.falls))},
+            {"policy_loss", Cell(u.policy_loss)},
+            {"value_loss", Cell(u.value_loss)},
+            {"entropy", Cell(u.entropy)},
+            {"approx_kl", Cell(u.approx_kl)},
+            {"clip_fraction", Cell(u.clip_fraction)},
+            {"explained_variance", Cell(u.explained_variance)},
+            {"learning_rate", Cell(u.learning_rate)},
+            {"update_s", Cell(u.seconds)},
+            {"stale_dropped", Cell(learner.stale_dropped())},
+            {"rejected", Cell(rejected_total)},
+            {"idle_fraction", Cell(idle_fraction)},
+            {"update_kl", Cell(u.update_kl)}};
+        for (size_t i = 0; i < e.figures.size(); ++i) {
+          row[e.figure_names[i]] = Cell(e.Mean(e.figures[i]));
+        }
+        csv << MetricsRow(csv_columns, row) << "\n";
         csv.flush();
       }
       learner.ResetEpisodeStats();

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,10 @@ struct LearnerProcessConfig {
   std::string config_text;  // stored in every checkpoint
   int observation_size = 0;
   int action_size = 0;
+  // The environment's episode figures (EnvSpec::figure_names), the first `reward_terms` of
+  // them reward terms: columns of metrics.csv and gauges.
+  std::vector<std::string> figure_names;
+  int reward_terms = 0;
   bool resume = false;             // continue from the newest checkpoint in run_dir
   std::string init_from;           // or start from another run's (or checkpoint's) weights
   double republish_seconds = 2.0;  // resend the snapshot so a restarted broker has it
@@ -52,6 +57,14 @@ struct LearnerProcessConfig {
 // last one when restarted (`ragdoll train` restarts it; compose restarts the containers).
 int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop);
+
+// The columns of a new metrics.csv: the learner's own, then one per episode figure.
+std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names);
+// A metrics.csv row: `cells` (by column name) in `columns`' order, comma-separated. A column
+// without a cell (a figure this run's environment does not report, in the file of a resumed
+// older run) holds 0, as the learner wrote such figures before they had names.
+std::string MetricsRow(const std::vector<std::string>& columns,
+                       const std::map<std::string, std::string>& cells);
 
 // The checkpoint files (checkpoint-*.pt) of a run's checkpoints/ folder, oldest first.
 std::vector<std::filesystem::path> Checkpoints(const std::filesystem::path& folder);

@@ -84,7 +84,8 @@ struct EnvConfig {
   double start_phase = 0.0;  // the phase in [0, 1) used when random_start is false
   // Bodies that may touch the ground; any other contact ends the episode (a fall).
   // `allowed_contacts: auto` (the default): the feet and every body the reference clip puts on
-  // the floor (ClipGroundContacts), resolved when the environment is built.
+  // the floor (ClipGroundContacts), filled in once (ResolveAllowedContacts) by the first to load
+  // the clips: the run's start-up, a rollout worker, or an environment built on its own.
   bool contacts_from_clip = true;
   std::vector<std::string> allowed_contacts;  // the explicit list, when not from the clip
   // The episode also ends when the root is further than this from the reference root, m.

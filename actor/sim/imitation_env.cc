@@ -2,14 +2,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 
 #include "actor/sim/observation.h"
+#include "actor/sim/steering_task.h"
 #include "common/config_section.h"
 
 namespace ragdoll::sim {
 namespace {
+
+// The imitation reward terms, as episode figures, in RewardTerms' order.
+const char* const kImitationTerms[] = {"rotation", "velocity", "end_effector", "com", "root"};
+constexpr int kImitationTermCount = static_cast<int>(std::size(kImitationTerms));
 
 // Half-width of the central difference that turns reference joint angles into joint velocities.
 // Well under a key-frame interval (33 ms at 30 fps), well above rounding.
@@ -19,7 +25,7 @@ double Yaw(const double* q) {
   return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
 }
 
-Vec3 CentreOfMass(const Character& c, const mjData& d) {
+Vec3 CentreOfMassOf(const Character& c, const mjData& d) {
   Vec3 com = {0, 0, 0};
   for (int b : c.bodies()) {
     for (int k = 0; k < 3; ++k) com[k] += c.model()->body_mass[b] * d.xipos[3 * b + k];
@@ -28,7 +34,44 @@ Vec3 CentreOfMass(const Character& c, const mjData& d) {
   return com;
 }
 
+EnvSpec SpecWithTask(const EnvConfig& config, const Character& character, const Task& task) {
+  EnvSpec spec;
+  spec.observation_size = ObservationSize(character) + task.observation_size();
+  spec.observation_names = ObservationNames(character);
+  for (std::string& name : task.ObservationNames()) {
+    spec.observation_names.push_back(std::move(name));
+  }
+  spec.action_size = static_cast<int>(character.hinges().size());
+  for (const auto& h : character.hinges()) spec.action_names.push_back(h.name);
+  spec.control_dt = config.control_dt();
+  spec.max_episode_steps = config.max_episode_steps;
+  spec.max_reward_per_step = config.reward.MaxReward() + task.max_reward();
+  spec.figure_names.assign(std::begin(kImitationTerms), std::end(kImitationTerms));
+  if (!task.reward_term().empty()) spec.figure_names.push_back(task.reward_term());
+  spec.reward_terms = static_cast<int>(spec.figure_names.size());
+  spec.figure_units.assign(spec.figure_names.size(), "");
+  for (const FigureSpec& f : task.FigureSpecs()) {
+    spec.figure_names.push_back(f.name);
+    spec.figure_units.push_back(f.unit);
+  }
+  spec.task = task.name();
+  return spec;
+}
+
 }  // namespace
+
+std::unique_ptr<Task> MakeTask(const EnvConfig& config) {
+  if (config.steering.enabled()) return std::make_unique<SteeringTask>(config);
+  return std::make_unique<Task>();
+}
+
+EnvSpec MakeEnvSpec(const EnvConfig& config) {
+  return MakeEnvSpec(config, *Character::Load(config.character, config.physics_dt()));
+}
+
+EnvSpec MakeEnvSpec(const EnvConfig& config, const Character& character) {
+  return SpecWithTask(config, character, *MakeTask(config));
+}
 
 const char* EpisodeEndName(EpisodeEnd end) {
   switch (end) {
@@ -62,26 +105,23 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
 
 ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
                            std::shared_ptr<const MotionSet> motions, const EnvConfig& config,
-                           uint64_t seed)
+                           uint64_t seed, std::unique_ptr<Task> task)
     : character_(std::move(character)),
       motions_(std::move(motions)),
       config_(config),
       rng_(seed),
       data_(character_->MakeData()),
       ref_data_(character_->MakeData()),
-      steering_(config.steering.enabled()) {
+      task_(task ? std::move(task) : MakeTask(config)) {
   const mjModel* m = character_->model();
   if (std::abs(m->opt.timestep - config_.physics_dt()) > 1e-12) {
     throw std::invalid_argument("character timestep " + std::to_string(m->opt.timestep) +
                                 " s differs from the config's physics step " +
                                 std::to_string(config_.physics_dt()) + " s");
   }
-  if (steering_ && motions_->size() != static_cast<int>(config_.steering.motions.size())) {
-    throw std::invalid_argument("the motion set does not match the config's steering.motions");
-  }
-  command_entry_ = reference_entry_ = motions_->commands().front();
+  task_->Check(*motions_);
+  reference_entry_ = task_->StartEntry(*motions_);
   clip_ = motions_->entry(reference_entry_).clip.get();
-  command_ = motions_->entry(command_entry_).command;
   const auto& joints = character_->joints();
   for (const auto& [name, w] : config_.joint_weights) {
     bool found = std::any_of(joints.begin(), joints.end(),
@@ -94,9 +134,7 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
   }
   for (const auto& h : character_->hinges()) hinge_joint_.push_back(h.joint);
   may_touch_ground_.assign(m->nbody, 0);
-  if (config_.contacts_from_clip) {
-    config_.allowed_contacts = GroundContacts(*motions_, *character_);
-  }
+  ResolveAllowedContacts(*motions_, *character_, &config_);
   for (const auto& name : config_.allowed_contacts) {
     int id = mj_name2id(m, mjOBJ_BODY, name.c_str());
     if (id < 0) {
@@ -105,35 +143,13 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
     may_touch_ground_[id] = 1;
   }
 
-  spec_.observation_size = ObservationSize(*character_) + SteeringObservationSize(config_);
-  spec_.observation_names = ObservationNames(*character_);
-  if (steering_) {
-    for (const char* n : {"command.forward", "command.left", "command.turn",
-                          "command.heading_error.sin", "command.heading_error.cos"}) {
-      spec_.observation_names.push_back(n);
-    }
-    for (const MotionSetEntry& e : motions_->entries()) {
-      spec_.observation_names.push_back("reference." + e.name);
-    }
-  }
-  spec_.action_size = static_cast<int>(character_->hinges().size());
-  for (const auto& h : character_->hinges()) spec_.action_names.push_back(h.name);
-  spec_.control_dt = config_.control_dt();
-  spec_.max_episode_steps = config_.max_episode_steps;
-  spec_.max_reward_per_step = config_.reward.MaxReward() + config_.steering.MaxReward();
+  spec_ = SpecWithTask(config_, *character_, *task_);
+  imitation_observation_size_ = ObservationSize(*character_);
+  episode_.figures.assign(spec_.figure_names.size(), 0.0);
 
   qpos_before_.resize(m->nq);
   qpos_after_.resize(m->nq);
   qvel_scratch_.resize(m->nv);
-  if (steering_) {
-    int window = std::max(
-        1, static_cast<int>(std::lround(config_.steering.velocity_window / config_.control_dt())));
-    com_history_.resize(window + 1);
-  }
-}
-
-int SteeringObservationSize(const EnvConfig& config) {
-  return config.steering.enabled() ? 5 + static_cast<int>(config.steering.motions.size()) : 0;
 }
 
 void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const {
@@ -156,10 +172,9 @@ void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const
 void ImitationEnv::SyncReference(double time) {
   const double* root = data_->qpos;
   std::vector<double> qpos(character_->model()->nq);
-  if (steering_) {
-    // The reference faces where the character is told to face.
+  if (const std::optional<double> heading = task_->reference_heading()) {
     ReferenceState(time, qpos.data(), qvel_scratch_.data());
-    reference_yaw_ += WrapAngle(desired_heading_ - Yaw(qpos.data() + 3));
+    reference_yaw_ += WrapAngle(*heading - Yaw(qpos.data() + 3));
   } else if (config_.reference_sync == ReferenceSync::kPositionAndHeading) {
     ReferenceState(time, qpos.data(), qvel_scratch_.data());
     reference_yaw_ += Yaw(root + 3) - Yaw(qpos.data() + 3);
@@ -193,7 +208,7 @@ void ImitationEnv::ClipState(double time, double* qpos, double* qvel) const {
 }
 
 void ImitationEnv::Reset(float* observation) {
-  if (steering_ && random_commands_) command_entry_ = RandomCommand();
+  task_->ChooseEpisode(*this, rng_);
   double phase = config_.start_phase;
   if (config_.random_start) {
     phase = std::uniform_real_distribution<double>(0.0, 1.0)(rng_);
@@ -201,21 +216,12 @@ void ImitationEnv::Reset(float* observation) {
   ResetAtPhase(phase, observation);
 }
 
-int ImitationEnv::RandomCommand() {
-  const std::vector<int>& commands = motions_->commands();
-  return commands[std::uniform_int_distribution<size_t>(0, commands.size() - 1)(rng_)];
-}
-
 void ImitationEnv::ResetAtPhase(double phase, float* observation) {
   const mjModel* m = character_->model();
   mjData* d = data_.get();
   mj_resetData(m, d);
-  if (steering_) {
-    // The episode starts in the command's own clip.
-    reference_entry_ = command_entry_;
-    clip_ = motions_->entry(reference_entry_).clip.get();
-    command_ = motions_->entry(command_entry_).command;
-  }
+  reference_entry_ = task_->StartEntry(*motions_);
+  clip_ = motions_->entry(reference_entry_).clip.get();
   time_ = phase * clip_->duration();
   reference_yaw_ = 0;
   reference_offset_[0] = reference_offset_[1] = 0;
@@ -223,16 +229,11 @@ void ImitationEnv::ResetAtPhase(double phase, float* observation) {
   mj_forward(m, d);
 
   episode_ = EpisodeStats();
+  episode_.figures.assign(spec_.figure_names.size(), 0.0);
   term_sums_ = RewardTerms();
-  error_sums_[0] = error_sums_[1] = 0;
-  episode_time_ = 0;
   episode_.max_length = config_.max_episode_steps;
-  if (steering_) {
-    desired_heading_ = Yaw(d->qpos + 3);
-    StartCommandHistory();
-    next_command_time_ = std::uniform_real_distribution<double>(
-        config_.steering.command_interval_min, config_.steering.command_interval_max)(rng_);
-  } else if (!clip_->loop()) {
+  task_->Start(*this, rng_);
+  if (task_->ends_with_clip() && !clip_->loop()) {
     int remaining =
         static_cast<int>(std::floor((clip_->duration() - time_) / config_.control_dt() + 1e-9));
     episode_.max_length = std::clamp(remaining, 1, config_.max_episode_steps);
@@ -242,79 +243,12 @@ void ImitationEnv::ResetAtPhase(double phase, float* observation) {
 
 void ImitationEnv::WriteObservation(float* observation) const {
   BuildObservation(*character_, *data_, clip_->Phase(time_), observation);
-  if (!steering_) return;
-  float* out = observation + ObservationSize(*character_);
-  // The commanded velocity and the desired heading, seen from the character's heading frame.
-  const double error = WrapAngle(desired_heading_ - heading());
-  const double c = std::cos(error), s = std::sin(error);
-  *out++ = static_cast<float>(c * command_.forward - s * command_.left);
-  *out++ = static_cast<float>(s * command_.forward + c * command_.left);
-  *out++ = static_cast<float>(command_.turn);
-  *out++ = static_cast<float>(s);
-  *out++ = static_cast<float>(c);
-  for (int i = 0; i < motions_->size(); ++i) *out++ = i == reference_entry_ ? 1.0f : 0.0f;
+  task_->WriteObservation(*this, observation + imitation_observation_size_);
 }
 
 double ImitationEnv::heading() const { return Yaw(data_->qpos + 3); }
 
-void ImitationEnv::StartCommandHistory() {
-  // As if the character had moved at its current root velocity for the whole window.
-  const Vec3 com = CentreOfMass(*character_, *data_);
-  const int n = static_cast<int>(com_history_.size());
-  for (int i = 0; i < n; ++i) {
-    double back = (n - 1 - i) * config_.control_dt();
-    com_history_[i] = {com[0] - back * data_->qvel[0], com[1] - back * data_->qvel[1], com[2]};
-  }
-  com_head_ = n - 1;  // the newest
-}
-
-Vec3 ImitationEnv::TravelVelocity() const {
-  if (com_history_.empty()) return {0, 0, 0};
-  const int n = static_cast<int>(com_history_.size());
-  const Vec3& newest = com_history_[com_head_];
-  const Vec3& oldest = com_history_[(com_head_ + 1) % n];
-  const double span = (n - 1) * config_.control_dt();
-  return {(newest[0] - oldest[0]) / span, (newest[1] - oldest[1]) / span, 0};
-}
-
-double ImitationEnv::SpeedError() const {
-  const Vec3 v = TravelVelocity();
-  const double c = std::cos(desired_heading_), s = std::sin(desired_heading_);
-  return std::hypot(v[0] - (c * command_.forward - s * command_.left),
-                    v[1] - (s * command_.forward + c * command_.left));
-}
-
-double ImitationEnv::HeadingError() const { return WrapAngle(heading() - desired_heading_); }
-
-double ImitationEnv::TaskReward(RewardTerms* terms) const {
-  const SteeringConfig& c = config_.steering;
-  const double v = SpeedError(), h = HeadingError();
-  terms->task = c.velocity_weight * std::exp(-c.velocity_scale * v * v) +
-                c.heading_weight * std::exp(-c.heading_scale * h * h);
-  terms->total += terms->task;
-  return terms->task;
-}
-
-void ImitationEnv::SetCommand(int entry) {
-  if (!steering_) throw std::logic_error("SetCommand: the environment has no steering task");
-  if (entry < 0 || entry >= motions_->size() || motions_->entry(entry).transition()) {
-    throw std::invalid_argument("SetCommand: " + std::to_string(entry) +
-                                " is not a command of the motion set");
-  }
-  random_commands_ = false;
-  if (ChangeCommand(entry)) ReferenceState(time_, ref_data_->qpos, ref_data_->qvel);
-}
-
-bool ImitationEnv::ChangeCommand(int entry) {
-  if (entry == command_entry_) return false;
-  const int transition = motions_->Transition(command_entry_, entry);
-  command_entry_ = entry;
-  command_ = motions_->entry(entry).command;
-  // A transition leads away only from its `from` clip itself, not from another transition.
-  SwitchReference(
-      transition >= 0 && reference_entry_ == motions_->entry(transition).from ? transition : entry);
-  return true;
-}
+Vec3 ImitationEnv::CentreOfMass() const { return CentreOfMassOf(*character_, *data_); }
 
 void ImitationEnv::SwitchReference(int entry) {
   const MotionClip& clip = *motions_->entry(entry).clip;
@@ -349,25 +283,6 @@ void ImitationEnv::SwitchReference(int entry) {
   reference_yaw_ = 0;
   reference_offset_[0] = reference_offset_[1] = 0;
   SyncReference(time_);
-}
-
-void ImitationEnv::AdvanceTask(double next_time) {
-  const double previous = time_;
-  time_ = next_time;
-  episode_time_ += config_.control_dt();
-  desired_heading_ = WrapAngle(desired_heading_ + command_.turn * config_.control_dt());
-
-  const MotionSetEntry& reference = motions_->entry(reference_entry_);
-  if (reference.transition() && time_ >= clip_->duration() - 1e-9) {
-    SwitchReference(reference.to);  // the transition has played: on to its clip
-  } else if (random_commands_ && episode_time_ >= next_command_time_) {
-    next_command_time_ += std::uniform_real_distribution<double>(
-        config_.steering.command_interval_min, config_.steering.command_interval_max)(rng_);
-    ChangeCommand(RandomCommand());
-  } else if (clip_->loop() &&
-             std::floor(time_ / clip_->duration()) > std::floor(previous / clip_->duration())) {
-    SyncReference(time_);  // a new cycle: the reference moves onto the character again
-  }
   ReferenceState(time_, ref_data_->qpos, ref_data_->qvel);
 }
 
@@ -417,7 +332,7 @@ void ImitationEnv::Features(const mjData& d, PoseFeatures* f) const {
     const double* p = d.xpos + 3 * c.end_effectors()[e];
     f->end_effectors[e] = {p[0] - root[0], p[1] - root[1], p[2] - root[2]};
   }
-  f->com = CentreOfMass(c, d);
+  f->com = CentreOfMassOf(c, d);
   f->root_position = {d.qpos[0], d.qpos[1], d.qpos[2]};
   f->root_rotation = {d.qpos[3], d.qpos[4], d.qpos[5], d.qpos[6]};
   f->root_linear_velocity = {d.qvel[0], d.qvel[1], d.qvel[2]};
@@ -507,17 +422,17 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     mj_step2(m, d);
     mj_step1(m, d);
   }
-  if (steering_) {
-    AdvanceTask(next_time);
-  } else {
-    // A new cycle of a looping clip: the reference moves onto the character (DeepMimic), so
-    // drift from earlier cycles is not scored again. The hinge targets above do not depend on it.
-    if (config_.reference_sync != ReferenceSync::kNone && clip_->loop() &&
-        std::floor(next_time / clip_->duration()) > std::floor(time_ / clip_->duration())) {
-      SyncReference(next_time);
-      ReferenceState(next_time, ref->qpos, ref->qvel);
-    }
-    time_ = next_time;
+  const double previous = time_;
+  time_ = next_time;
+  // Unless the task placed the reference itself, a new cycle of a looping clip moves it onto the
+  // character (DeepMimic), so drift from earlier cycles is not scored again. The hinge targets
+  // above do not depend on it.
+  if (!task_->Advance(*this, rng_) &&
+      (task_->reference_heading() || config_.reference_sync != ReferenceSync::kNone) &&
+      clip_->loop() &&
+      std::floor(time_ / clip_->duration()) > std::floor(previous / clip_->duration())) {
+    SyncReference(time_);
+    ReferenceState(time_, ref->qpos, ref->qvel);
   }
   ++episode_.length;
 
@@ -533,14 +448,8 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     mj_forward(m, d);
   } else {
     result.terms = Score();
-    if (steering_) {
-      // The centre of mass Score() just computed joins the travel history.
-      com_head_ = (com_head_ + 1) % static_cast<int>(com_history_.size());
-      com_history_[com_head_] = sim_features_.com;
-      TaskReward(&result.terms);
-      error_sums_[0] += SpeedError();
-      error_sums_[1] += std::abs(HeadingError());
-    }
+    result.terms.task = task_->Reward(*this, sim_features_);
+    result.terms.total += result.terms.task;
     result.reward = result.terms.total;
     EpisodeEnd end = CheckTermination();
     if (end != EpisodeEnd::kRunning) {
@@ -567,8 +476,13 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
                          term_sums_.end_effector / n, term_sums_.com / n,
                          term_sums_.root / n,         term_sums_.task / n,
                          term_sums_.total / n};
-  episode_.speed_error = error_sums_[0] / n;
-  episode_.heading_error = error_sums_[1] / n;
+  const RewardTerms& mean = episode_.mean_terms;
+  double* figures = episode_.figures.data();
+  for (double term : {mean.rotation, mean.velocity, mean.end_effector, mean.com, mean.root}) {
+    *figures++ = term;
+  }
+  if (spec_.reward_terms > kImitationTermCount) *figures++ = mean.task;
+  task_->Figures(n, figures);
   episode_.normalized_return =
       episode_.episode_return / (spec_.max_reward_per_step * episode_.max_length);
 

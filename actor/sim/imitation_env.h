@@ -13,6 +13,7 @@
 #include "actor/sim/imitation_reward.h"
 #include "actor/sim/motion_clip.h"
 #include "actor/sim/motion_set.h"
+#include "actor/sim/task.h"
 
 namespace ragdoll::sim {
 
@@ -24,7 +25,22 @@ struct EnvSpec {
   double control_dt = 0;
   int max_episode_steps = 0;
   double max_reward_per_step = 0;
+  // The figures reported for each finished episode (EpisodeStats::figures, per-step means), by
+  // the names the learner's log, the metrics, the evaluation and the report show: the reward
+  // terms first (the imitation terms, then the task's), then the task's own figures.
+  std::vector<std::string> figure_names;
+  std::vector<std::string> figure_units;  // of each figure: "" for a reward term, "m/s", "rad"
+  int reward_terms = 0;                   // how many of the figures are reward terms
+  std::string task;                       // the task's name ("steering"); empty: imitation alone
 };
+
+// The spec of the environment `config` describes, for `character`, without building it.
+EnvSpec MakeEnvSpec(const EnvConfig& config, const Character& character);
+// The same, loading the config's character (for tools that need only the sizes and names).
+EnvSpec MakeEnvSpec(const EnvConfig& config);
+
+// The task `config` asks for on top of imitation (the Task defaults: imitation alone).
+std::unique_ptr<Task> MakeTask(const EnvConfig& config);
 
 // Why an episode ended.
 enum class EpisodeEnd {
@@ -49,17 +65,15 @@ struct EpisodeStats {
   double normalized_return = 0;
   int length = 0;
   int max_length = 0;
-  RewardTerms mean_terms;  // per-step mean of each term
-  // Steering: per-step means of |v - v*| (m/s) and |heading - desired| (rad); 0 without.
-  double speed_error = 0;
-  double heading_error = 0;
+  RewardTerms mean_terms;       // per-step mean of each term
+  std::vector<double> figures;  // per-step means, as EnvSpec::figure_names names them
   EpisodeEnd end = EpisodeEnd::kRunning;
   bool fell() const {
     return end == EpisodeEnd::kFell || end == EpisodeEnd::kStrayed || end == EpisodeEnd::kUnstable;
   }
 };
 
-class ImitationEnv {
+class ImitationEnv final : public TaskHost {
  public:
   // The character's model timestep must equal config.physics_dt() (load it with
   // Character::Load(path, config.physics_dt())). Throws ConfigError for names in the config
@@ -67,11 +81,14 @@ class ImitationEnv {
   ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionClip> clip,
                const EnvConfig& config, uint64_t seed);
   // With config.steering: the steering task on `motions` (LoadMotionSet). Without, `motions`
-  // holds the one clip.
+  // holds the one clip. `task` replaces the config's (MakeTask) when given.
   ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionSet> motions,
-               const EnvConfig& config, uint64_t seed);
+               const EnvConfig& config, uint64_t seed, std::unique_ptr<Task> task = nullptr);
 
   const EnvSpec& spec() const { return spec_; }
+  // The task on top of imitation (Steering() reaches the steering task's commands).
+  Task& task() { return *task_; }
+  const Task& task() const { return *task_; }
 
   // Starts an episode in the reference state (pose and velocities) at a random phase, or at
   // config.start_phase when random_start is off. Writes the first observation.
@@ -94,40 +111,27 @@ class ImitationEnv {
   void SetExternalForce(int body, const Vec3& force);
   // Replaces the simulated state (for tests and perturbation tools); keeps the episode going.
   void SetState(const double* qpos, const double* qvel);
-  const mjData& data() const { return *data_; }
-  const Character& character() const { return *character_; }
+  const mjData& data() const override { return *data_; }
+  const Character& character() const override { return *character_; }
   // The clip imitated now (steering: the current command's clip, or a transition).
-  const MotionClip& clip() const { return *clip_; }
+  const MotionClip& clip() const override { return *clip_; }
   // The bodies that may touch the ground (the config's list, or the clip's when it says auto).
   const std::vector<std::string>& allowed_contacts() const { return config_.allowed_contacts; }
-  double time() const { return time_; }
+  double time() const override { return time_; }
   double phase() const { return clip_->Phase(time_); }
   int64_t bad_actions() const { return bad_actions_; }
   int64_t unstable_resets() const { return unstable_resets_; }
 
-  // --- steering (EnvConfig::steering); the command is fixed without it ---
-  bool steering() const { return steering_; }
-  const MotionSet& motion_set() const { return *motions_; }
-  // The motion-set entry the current command names, and the one whose clip is imitated now (a
-  // transition while one plays).
-  int command_entry() const { return command_entry_; }
-  int reference_entry() const { return reference_entry_; }
-  const Command& command() const { return command_; }
-  // Commands a script or a player gives: from now on the command changes only through here
-  // (training changes it at random times). Switches the reference clip as a random change does.
-  void SetCommand(int entry);
-  // The yaw the character should face (integrates the command's turn), its own yaw, radians.
-  double desired_heading() const { return desired_heading_; }
-  double heading() const;
-  // Horizontal centre-of-mass velocity averaged over the last velocity_window seconds, world.
-  Vec3 TravelVelocity() const;
-  // |TravelVelocity() - commanded velocity| (m/s) and the heading error wrapped to [-pi, pi].
-  double SpeedError() const;
-  double HeadingError() const;
-  // Rewrites the current observation (after SetCommand, which changes its command part).
+  // The clips the reference is drawn from (one without a task that switches them), and the
+  // entry imitated now.
+  const MotionSet& motion_set() const override { return *motions_; }
+  int reference_entry() const override { return reference_entry_; }
+  // The character's yaw, radians, and its centre of mass, world.
+  double heading() const override;
+  Vec3 CentreOfMass() const override;
+  // Rewrites the current observation (after a command, which changes the task's part).
   void Observe(float* observation) const { WriteObservation(observation); }
-  // Seconds since the episode started.
-  double episode_time() const { return episode_time_; }
+  void SwitchReference(int entry) override;
 
   // Joint coordinates and velocities of the reference at clip time `time` (nq and nv values).
   void ReferenceState(double time, double* qpos, double* qvel) const;
@@ -139,20 +143,9 @@ class ImitationEnv {
   // The clip's own state at `time`, before the reference frame (ReferenceState applies it).
   void ClipState(double time, double* qpos, double* qvel) const;
   // At the start of a new cycle, moves the reference frame onto the character
-  // (EnvConfig::reference_sync).
+  // (EnvConfig::reference_sync; facing the task's reference_heading() when it has one).
   void SyncReference(double time);
-  // Steering: the reference becomes `entry`'s clip at the time whose pose is closest to the
-  // character's, placed on the character and facing the desired heading.
-  void SwitchReference(int entry);
-  // Makes `entry` the command and switches the reference (through a transition where the set
-  // has one); false when it already is.
-  bool ChangeCommand(int entry);
-  // Steering, after the physics of a step: time, heading, command changes.
-  void AdvanceTask(double next_time);
-  void StartCommandHistory();
   void WriteObservation(float* observation) const;
-  double TaskReward(RewardTerms* terms) const;
-  int RandomCommand();
   void Features(const mjData& d, PoseFeatures* out) const;
   // Scores data_ against the reference state already in ref_data_.
   RewardTerms Score();
@@ -161,6 +154,7 @@ class ImitationEnv {
 
   std::shared_ptr<const Character> character_;
   std::shared_ptr<const MotionSet> motions_;
+  int reference_entry_ = 0;
   const MotionClip* clip_ = nullptr;  // motions_'s reference_entry_
   EnvConfig config_;
   EnvSpec spec_;
@@ -184,22 +178,9 @@ class ImitationEnv {
   RewardTerms term_sums_;
   int64_t bad_actions_ = 0;
   int64_t unstable_resets_ = 0;
-  // Steering.
-  bool steering_ = false;
-  bool random_commands_ = true;
-  int command_entry_ = 0;
-  int reference_entry_ = 0;
-  Command command_;
-  double desired_heading_ = 0;
-  double episode_time_ = 0;
-  double next_command_time_ = 0;
-  std::vector<Vec3> com_history_;  // ring of the last window + 1 control steps' centre of mass
-  int com_head_ = 0;
-  double error_sums_[2] = {0, 0};  // speed, heading
+  std::unique_ptr<Task> task_;
+  int imitation_observation_size_ = 0;
 };
-
-// Observation entries the steering task adds after ObservationSize(character) (0 without).
-int SteeringObservationSize(const EnvConfig& config);
 
 const char* EpisodeEndName(EpisodeEnd end);
 

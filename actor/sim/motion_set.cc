@@ -129,6 +129,13 @@ std::vector<std::string> GroundContacts(const MotionSet& motions, const Characte
   return all;
 }
 
+void ResolveAllowedContacts(const MotionSet& motions, const Character& character,
+                            EnvConfig* config) {
+  if (config->contacts_from_clip && config->allowed_contacts.empty()) {
+    config->allowed_contacts = GroundContacts(motions, character);
+  }
+}
+
 std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config,
                                                const Character& character) {
   std::vector<MotionSetEntry> entries;

@@ -53,6 +53,11 @@ MotionClip Mirror(const MotionClip& clip, const Character& character, const std:
 
 // Every body some clip of the set puts on the floor (ClipGroundContacts), feet included.
 std::vector<std::string> GroundContacts(const MotionSet& motions, const Character& character);
+// `allowed_contacts: auto` resolved once: fills config->allowed_contacts with GroundContacts
+// unless the config gives its own list or it is already filled (so a process resolves it once
+// and every environment built from the config reuses the list).
+void ResolveAllowedContacts(const MotionSet& motions, const Character& character,
+                            EnvConfig* config);
 
 // Loads, mirrors and measures every clip of `steering` (ConfigError naming the file when one
 // does not load). The set of a config without steering is its one clip, command measured.

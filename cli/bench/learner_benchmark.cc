@@ -23,7 +23,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include "actor/rollout.h"
+#include "actor/sim/imitation_env.h"
 #include "cli/experiment.h"
 #include "common/median.h"
 #include "learner/learner.h"
@@ -70,8 +70,8 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
   PinToCore(rank);
   at::set_num_threads(1);
   const learner::TrainerConfig& c = e.trainer;
-  actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
-  const int O = probe.spec().observation_size, A = probe.spec().action_size;
+  const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
+  const int O = spec.observation_size, A = spec.action_size;
   learner::ReplicaGroupConfig gc;
   gc.rank = rank;
   gc.size = replicas;
@@ -179,8 +179,8 @@ int main(int argc, char** argv) {
     }
     at::set_num_threads(threads);
     const learner::TrainerConfig& c = e.trainer;
-    actor::RolloutWorker probe(e.environment, 1, 1, 0, "probe");
-    const int O = probe.spec().observation_size, A = probe.spec().action_size;
+    const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
+    const int O = spec.observation_size, A = spec.action_size;
     const int T = c.time_horizon;
     learner::Learner l(c, O, A);
     std::mt19937 rng(1);

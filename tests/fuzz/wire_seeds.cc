@@ -36,6 +36,9 @@ int main(int argc, char** argv) {
   e->set_episode_return(3.5);
   e->set_length(7);
   e->set_normalized_return(0.5);
+  v1::Figure* f = e->add_figures();
+  f->set_name("rotation");
+  f->set_value(0.8);
   write("segment", wire::Pack(v1::KIND_TRAJECTORY, "run", "host-actor-0", s, 12));
   v1::PolicySnapshot snapshot;
   snapshot.set_version(12);

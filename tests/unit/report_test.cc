@@ -228,6 +228,17 @@ TEST(CurvesSvg, OverlaysRunsInTheirColoursAndNotesMissingColumns) {
   EXPECT_EQ(svg.find(">16k</text>"), std::string::npos);
 }
 
+// The learner writes a task's figures after its own columns: one the report has no title for is
+// plotted under its name.
+TEST(CurvesSvg, PlotsAnEpisodeFigureItHasNoTitleFor) {
+  RunReport a = RunOf("a",
+                      "samples,elapsed_s,episodes,normalized_return,update_kl,root_height\n"
+                      "4096,4,3,0.3,0.01,0.9\n8192,8,3,0.5,0.01,0.85\n");
+  const std::string svg = CurvesSvg({a});
+  EXPECT_EQ(Select(Polylines(svg), 0, "root_height", "samples").size(), 1u);
+  EXPECT_NE(svg.find(">episode figure: root_height</text>"), std::string::npos);
+}
+
 TEST(Evaluation, ReadsEvalJsonWithAndWithoutTheCheckpoint) {
   const std::string json = R"({
   "checkpoint": "runs/a/checkpoints/checkpoint-000000123456.pt",
@@ -240,8 +251,11 @@ TEST(Evaluation, ReadsEvalJsonWithAndWithoutTheCheckpoint) {
   EXPECT_DOUBLE_EQ(e.normalized_return, 0.987);
   EXPECT_DOUBLE_EQ(e.fall_rate, 0.05);
   EXPECT_DOUBLE_EQ(e.episode_length, 29.5);
-  EXPECT_DOUBLE_EQ(e.rotation, 0.6);
-  EXPECT_DOUBLE_EQ(e.root, 0.7);
+  EXPECT_EQ(e.reward_terms, (std::vector<std::pair<std::string, double>>{{"rotation", 0.6},
+                                                                         {"velocity", 0.5},
+                                                                         {"end_effector", 0.8},
+                                                                         {"com", 0.9},
+                                                                         {"root", 0.7}}));
   EXPECT_EQ(e.policy_version, 12);
   EXPECT_EQ(e.samples, 123456);
   EXPECT_EQ(e.checkpoint, "runs/a/checkpoints/checkpoint-000000123456.pt");

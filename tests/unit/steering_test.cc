@@ -2,6 +2,7 @@
 // environment's command, task reward, observation and reference switching.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -12,6 +13,7 @@
 #include "actor/sim/motion_io.h"
 #include "actor/sim/motion_set.h"
 #include "actor/sim/observation.h"
+#include "actor/sim/steering_task.h"
 #include "common/config_section.h"
 
 namespace ragdoll::sim {
@@ -225,9 +227,9 @@ TEST_F(SteeringEnvTest, ObservationCarriesTheCommand) {
   EXPECT_DOUBLE_EQ(spec.max_reward_per_step, 1.0 + 0.5);
 
   std::vector<float> obs(spec.observation_size);
-  env->SetCommand(1);
+  Steering(*env).SetCommand(*env, 1);
   env->Reset(obs.data());
-  EXPECT_EQ(env->command_entry(), 1);
+  EXPECT_EQ(Steering(*env).command_entry(), 1);
   EXPECT_EQ(env->reference_entry(), 1);
   // The episode starts facing the desired heading.
   EXPECT_NEAR(obs[base], 0.9, 1e-6);
@@ -244,7 +246,7 @@ TEST_F(SteeringEnvTest, ObservationCarriesTheCommand) {
 TEST_F(SteeringEnvTest, TaskRewardTracksTheAveragedTravelVelocityAndHeading) {
   auto env = Make();
   std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
-  env->SetCommand(1);
+  Steering(*env).SetCommand(*env, 1);
   env->Reset(obs.data());
   const mjModel* m = character_->model();
   auto com = [&] {
@@ -264,13 +266,13 @@ TEST_F(SteeringEnvTest, TaskRewardTracksTheAveragedTravelVelocityAndHeading) {
     if (step + 1 < window) continue;
     const Vec3& now = history.back();
     const Vec3& then = history[history.size() - 1 - window];
-    const Vec3 v = env->TravelVelocity();
+    const Vec3 v = Steering(*env).TravelVelocity();
     EXPECT_NEAR(v[0], (now[0] - then[0]) / 0.5, 1e-9);
     EXPECT_NEAR(v[1], (now[1] - then[1]) / 0.5, 1e-9);
-    const double h = env->desired_heading();
+    const double h = Steering(*env).desired_heading();
     const double ex = v[0] - 0.9 * std::cos(h), ey = v[1] - 0.9 * std::sin(h);
     const double speed_error = std::hypot(ex, ey);
-    EXPECT_NEAR(env->SpeedError(), speed_error, 1e-12);
+    EXPECT_NEAR(Steering(*env).SpeedError(), speed_error, 1e-12);
     const double heading_error = std::remainder(env->heading() - h, 2 * M_PI);
     EXPECT_NEAR(r.terms.task,
                 0.3 * std::exp(-4.0 * speed_error * speed_error) +
@@ -282,7 +284,10 @@ TEST_F(SteeringEnvTest, TaskRewardTracksTheAveragedTravelVelocityAndHeading) {
                     0.1 * r.terms.com + 0.2 * r.terms.root,
                 1e-12);
   }
-  EXPECT_GT(env->episode().speed_error, 0);
+  const std::vector<std::string>& figures = env->spec().figure_names;
+  const auto speed = std::find(figures.begin(), figures.end(), "speed_error") - figures.begin();
+  ASSERT_LT(speed, static_cast<long>(figures.size()));
+  EXPECT_GT(env->episode().figures[speed], 0);
 }
 
 TEST_F(SteeringEnvTest, DesiredHeadingIntegratesTheTurnRate) {
@@ -290,13 +295,14 @@ TEST_F(SteeringEnvTest, DesiredHeadingIntegratesTheTurnRate) {
   config_.steering.motions[1].command = {0.5, 0, 0.6};
   auto env = Make();
   std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
-  env->SetCommand(1);
+  Steering(*env).SetCommand(*env, 1);
   env->Reset(obs.data());
-  const double start = env->desired_heading();
+  const double start = Steering(*env).desired_heading();
   for (int step = 0; step < 10; ++step) env->Step(action.data(), obs.data());
-  EXPECT_NEAR(std::remainder(env->desired_heading() - start, 2 * M_PI), 10 * 0.6 / 30, 1e-12);
+  EXPECT_NEAR(std::remainder(Steering(*env).desired_heading() - start, 2 * M_PI), 10 * 0.6 / 30,
+              1e-12);
   // The command seen from the character: (0.5, 0) turned by the heading error.
-  const double e = std::remainder(env->desired_heading() - env->heading(), 2 * M_PI);
+  const double e = std::remainder(Steering(*env).desired_heading() - env->heading(), 2 * M_PI);
   const int base = ObservationSize(*character_);
   EXPECT_NEAR(obs[base], 0.5 * std::cos(e), 1e-6);
   EXPECT_NEAR(obs[base + 1], 0.5 * std::sin(e), 1e-6);
@@ -311,7 +317,7 @@ TEST_F(SteeringEnvTest, TrainingSwitchesCommandsAtRandomTimesAndTheReferenceFoll
   auto env = Make(7);
   std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
   env->Reset(obs.data());
-  int switches = 0, previous = env->command_entry();
+  int switches = 0, previous = Steering(*env).command_entry();
   for (int step = 0; step < 300; ++step) {
     // Hold the character in the reference state so that it never falls.
     std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
@@ -319,10 +325,10 @@ TEST_F(SteeringEnvTest, TrainingSwitchesCommandsAtRandomTimesAndTheReferenceFoll
     env->SetState(qpos.data(), qvel.data());
     StepResult r = env->Step(action.data(), obs.data());
     ASSERT_FALSE(r.terminated) << step;
-    if (env->command_entry() != previous) {
+    if (Steering(*env).command_entry() != previous) {
       ++switches;
-      previous = env->command_entry();
-      EXPECT_EQ(env->reference_entry(), env->command_entry());
+      previous = Steering(*env).command_entry();
+      EXPECT_EQ(env->reference_entry(), Steering(*env).command_entry());
       // The observation's one-hot names the clip now imitated (phase matching itself is checked
       // in PhaseMatchingPicksTheClosestKeyFrame).
       const int base = ObservationSize(*character_);
@@ -337,14 +343,14 @@ TEST_F(SteeringEnvTest, TrainingSwitchesCommandsAtRandomTimesAndTheReferenceFoll
 TEST_F(SteeringEnvTest, PhaseMatchingPicksTheClosestKeyFrame) {
   auto env = Make();
   std::vector<float> obs(env->spec().observation_size);
-  env->SetCommand(1);
+  Steering(*env).SetCommand(*env, 1);
   env->ResetAtPhase(0.37, obs.data());
   const double time = env->time();
   // From the walk to stand and back: the walk re-enters at the key frame nearest the pose the
   // character holds (its own 0.37 phase pose, unchanged since no step ran).
-  env->SetCommand(0);
+  Steering(*env).SetCommand(*env, 0);
   EXPECT_EQ(env->reference_entry(), 0);
-  env->SetCommand(1);
+  Steering(*env).SetCommand(*env, 1);
   const MotionClip& walk = env->clip();
   EXPECT_NEAR(env->time(),
               walk.frame_time(static_cast<int>(std::lround(time / walk.frame_duration(0)))), 1e-9);
@@ -372,10 +378,10 @@ TEST_F(SteeringEnvTest, TransitionsPlayThenHandOver) {
   auto motions = std::make_shared<const MotionSet>(entries);
   ImitationEnv env(character_, motions, config_, 3);
   std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size, 0.0f);
-  env.SetCommand(0);
+  Steering(env).SetCommand(env, 0);
   env.ResetAtPhase(0.0, obs.data());
-  env.SetCommand(1);
-  EXPECT_EQ(env.command_entry(), 1);
+  Steering(env).SetCommand(env, 1);
+  EXPECT_EQ(Steering(env).command_entry(), 1);
   EXPECT_EQ(env.reference_entry(), 2);  // the transition plays first
   EXPECT_NEAR(env.time(), 0.0, 1e-12);  // its first half holds stand's pose: entered at the start
   int steps = 0;
@@ -390,7 +396,7 @@ TEST_F(SteeringEnvTest, TransitionsPlayThenHandOver) {
   EXPECT_EQ(steps, 29);
   EXPECT_EQ(env.reference_entry(), 1);
   // Back to stand: no transition listed from walk, so straight to the clip.
-  env.SetCommand(0);
+  Steering(env).SetCommand(env, 0);
   EXPECT_EQ(env.reference_entry(), 0);
 }
 
@@ -409,7 +415,7 @@ TEST_F(SteeringEnvTest, RolloutsAreBitIdenticalForASeed) {
       StepResult r = env->Step(action.data(), obs.data());
       trace.insert(trace.end(), obs.begin(), obs.end());
       trace.push_back(static_cast<float>(r.reward));
-      trace.push_back(static_cast<float>(env->command_entry()));
+      trace.push_back(static_cast<float>(Steering(*env).command_entry()));
       if (r.terminated || r.truncated) env->Reset(obs.data());
     }
     return trace;
@@ -420,18 +426,40 @@ TEST_F(SteeringEnvTest, RolloutsAreBitIdenticalForASeed) {
   EXPECT_NE(a, c);
 }
 
+// The learner learns the sizes and the figures without building an environment.
+TEST_F(SteeringEnvTest, TheSpecComesFromTheConfigAlone) {
+  auto env = Make();
+  const EnvSpec spec = MakeEnvSpec(config_, *character_);
+  EXPECT_EQ(spec.observation_size, env->spec().observation_size);
+  EXPECT_EQ(spec.observation_names, env->spec().observation_names);
+  EXPECT_EQ(spec.action_names, env->spec().action_names);
+  EXPECT_EQ(spec.max_reward_per_step, env->spec().max_reward_per_step);
+  EXPECT_EQ(spec.figure_names,
+            (std::vector<std::string>{"rotation", "velocity", "end_effector", "com", "root", "task",
+                                      "speed_error", "heading_error"}));
+  EXPECT_EQ(spec.figure_names, env->spec().figure_names);
+  EXPECT_EQ(spec.reward_terms, 6);
+  EXPECT_EQ(spec.task, "steering");
+  EnvConfig plain = config_;
+  plain.steering = SteeringConfig();
+  const EnvSpec walk = MakeEnvSpec(plain, *character_);
+  EXPECT_EQ(walk.observation_size, ObservationSize(*character_));
+  EXPECT_EQ(walk.figure_names.size(), 5u);
+  EXPECT_EQ(walk.task, "");
+}
+
 TEST_F(SteeringEnvTest, CommandsAreRefusedWithoutSteeringAndOutsideTheSet) {
   auto env = Make();
-  EXPECT_THROW(env->SetCommand(2), std::invalid_argument);
-  EXPECT_THROW(env->SetCommand(-1), std::invalid_argument);
+  EXPECT_THROW(Steering(*env).SetCommand(*env, 2), std::invalid_argument);
+  EXPECT_THROW(Steering(*env).SetCommand(*env, -1), std::invalid_argument);
   EnvConfig plain;
   plain.character = config_.character;
   plain.motion = kWalk;
   plain.substeps = 10;
   ImitationEnv single(character_, std::make_shared<const MotionClip>(LoadMotion(kWalk)), plain, 1);
-  EXPECT_FALSE(single.steering());
+  EXPECT_EQ(single.task().name(), "");
   EXPECT_EQ(single.spec().observation_size, ObservationSize(*character_));
-  EXPECT_THROW(single.SetCommand(0), std::logic_error);
+  EXPECT_THROW(Steering(single), std::logic_error);
 }
 
 }  // namespace

@@ -452,6 +452,38 @@ TEST(WireRejects, NonFiniteValues) {
   }
 }
 
+// Episode figures travel by name: finite values, a bounded count and bounded names.
+TEST(WireRejects, BadEpisodeFigures) {
+  const SegmentData d;
+  auto with_figure = [&](const std::string& name, double value) {
+    v1::TrajectorySegment s = d.Build();
+    v1::Figure* f = s.mutable_episodes(0)->add_figures();
+    f->set_name(name);
+    f->set_value(value);
+    return s;
+  };
+  EXPECT_TRUE(CheckSegment(with_figure("speed_error", 0.25), kObs, kAct).ok());
+  {
+    const Verdict v = CheckSegment(
+        with_figure("speed_error", std::numeric_limits<double>::infinity()), kObs, kAct);
+    EXPECT_EQ(v.rejection, Rejection::kNonFinite);
+    EXPECT_THAT(v.detail, HasSubstr("'speed_error'"));
+  }
+  EXPECT_EQ(CheckSegment(with_figure("", 1), kObs, kAct).rejection, Rejection::kShape);
+  EXPECT_EQ(CheckSegment(with_figure(std::string(65, 'x'), 1), kObs, kAct).rejection,
+            Rejection::kShape);
+  EXPECT_TRUE(CheckSegment(with_figure(std::string(64, 'x'), 1), kObs, kAct).ok());
+  v1::TrajectorySegment many = d.Build();
+  for (int i = 0; i < 65; ++i) {
+    v1::Figure* f = many.mutable_episodes(0)->add_figures();
+    f->set_name("f" + std::to_string(i));
+    f->set_value(i);
+  }
+  const Verdict v = CheckSegment(many, kObs, kAct);
+  EXPECT_EQ(v.rejection, Rejection::kShape);
+  EXPECT_THAT(v.detail, HasSubstr("more than 64 figures"));
+}
+
 TEST(WireRejects, StepBothTerminatedAndTruncated) {
   SegmentData d;
   d.truncated[2] = 1;  // step 2 is already terminated; now also an inner truncation

@@ -1,0 +1,167 @@
+#include "actor/sim/steering_task.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "actor/sim/imitation_env.h"
+
+namespace ragdoll::sim {
+
+SteeringTask::SteeringTask(const EnvConfig& config)
+    : config_(config.steering), control_dt_(config.control_dt()) {
+  if (!config_.enabled()) throw std::invalid_argument("a steering task needs steering.motions");
+  // The set's first command, as MotionSet::commands() orders them.
+  const auto& items = config_.motions;
+  command_entry_ =
+      static_cast<int>(std::find_if(items.begin(), items.end(),
+                                    [](const MotionSetItem& item) { return !item.transition(); }) -
+                       items.begin());
+  const int window =
+      std::max(1, static_cast<int>(std::lround(config_.velocity_window / control_dt_)));
+  com_history_.resize(window + 1);
+}
+
+int SteeringTask::observation_size() const { return 5 + static_cast<int>(config_.motions.size()); }
+
+std::vector<std::string> SteeringTask::ObservationNames() const {
+  std::vector<std::string> names = {"command.forward", "command.left", "command.turn",
+                                    "command.heading_error.sin", "command.heading_error.cos"};
+  for (const MotionSetItem& item : config_.motions) names.push_back("reference." + item.name);
+  return names;
+}
+
+void SteeringTask::Check(const MotionSet& set) const {
+  if (set.size() != static_cast<int>(config_.motions.size())) {
+    throw std::invalid_argument("the motion set does not match the config's steering.motions");
+  }
+}
+
+void SteeringTask::WriteObservation(const TaskHost& env, float* out) const {
+  const double error = WrapAngle(desired_heading_ - env.heading());
+  const double c = std::cos(error), s = std::sin(error);
+  *out++ = static_cast<float>(c * command_.forward - s * command_.left);
+  *out++ = static_cast<float>(s * command_.forward + c * command_.left);
+  *out++ = static_cast<float>(command_.turn);
+  *out++ = static_cast<float>(s);
+  *out++ = static_cast<float>(c);
+  const int entries = env.motion_set().size();
+  for (int i = 0; i < entries; ++i) *out++ = i == env.reference_entry() ? 1.0f : 0.0f;
+}
+
+int SteeringTask::RandomCommand(const MotionSet& set, std::mt19937_64& rng) const {
+  const std::vector<int>& commands = set.commands();
+  return commands[std::uniform_int_distribution<size_t>(0, commands.size() - 1)(rng)];
+}
+
+void SteeringTask::ChooseEpisode(const TaskHost& env, std::mt19937_64& rng) {
+  if (random_commands_) command_entry_ = RandomCommand(env.motion_set(), rng);
+}
+
+void SteeringTask::Start(const TaskHost& env, std::mt19937_64& rng) {
+  command_ = env.motion_set().entry(command_entry_).command;
+  error_sums_[0] = error_sums_[1] = 0;
+  episode_time_ = 0;
+  desired_heading_ = env.heading();
+  // The travel history as if the character had moved at its current root velocity for the
+  // whole window.
+  const Vec3 com = env.CentreOfMass();
+  const double* qvel = env.data().qvel;
+  const int n = static_cast<int>(com_history_.size());
+  for (int i = 0; i < n; ++i) {
+    double back = (n - 1 - i) * control_dt_;
+    com_history_[i] = {com[0] - back * qvel[0], com[1] - back * qvel[1], com[2]};
+  }
+  com_head_ = n - 1;  // the newest
+  next_command_time_ = std::uniform_real_distribution<double>(config_.command_interval_min,
+                                                              config_.command_interval_max)(rng);
+}
+
+Vec3 SteeringTask::TravelVelocity() const {
+  const int n = static_cast<int>(com_history_.size());
+  const Vec3& newest = com_history_[com_head_];
+  const Vec3& oldest = com_history_[(com_head_ + 1) % n];
+  const double span = (n - 1) * control_dt_;
+  return {(newest[0] - oldest[0]) / span, (newest[1] - oldest[1]) / span, 0};
+}
+
+double SteeringTask::SpeedError() const {
+  const Vec3 v = TravelVelocity();
+  const double c = std::cos(desired_heading_), s = std::sin(desired_heading_);
+  return std::hypot(v[0] - (c * command_.forward - s * command_.left),
+                    v[1] - (s * command_.forward + c * command_.left));
+}
+
+double SteeringTask::HeadingError(const TaskHost& env) const {
+  return WrapAngle(env.heading() - desired_heading_);
+}
+
+double SteeringTask::Reward(const TaskHost& env, const PoseFeatures& character) {
+  // The centre of mass the imitation terms were just scored with joins the travel history.
+  com_head_ = (com_head_ + 1) % static_cast<int>(com_history_.size());
+  com_history_[com_head_] = character.com;
+  const double v = SpeedError(), h = HeadingError(env);
+  const double reward = config_.velocity_weight * std::exp(-config_.velocity_scale * v * v) +
+                        config_.heading_weight * std::exp(-config_.heading_scale * h * h);
+  error_sums_[0] += SpeedError();
+  error_sums_[1] += std::abs(HeadingError(env));
+  return reward;
+}
+
+void SteeringTask::Figures(double steps, double* out) const {
+  out[0] = error_sums_[0] / steps;
+  out[1] = error_sums_[1] / steps;
+}
+
+void SteeringTask::SetCommand(TaskHost& env, int entry) {
+  const MotionSet& set = env.motion_set();
+  if (entry < 0 || entry >= set.size() || set.entry(entry).transition()) {
+    throw std::invalid_argument("SetCommand: " + std::to_string(entry) +
+                                " is not a command of the motion set");
+  }
+  random_commands_ = false;
+  ChangeCommand(env, entry);
+}
+
+bool SteeringTask::ChangeCommand(TaskHost& env, int entry) {
+  if (entry == command_entry_) return false;
+  const MotionSet& set = env.motion_set();
+  const int transition = set.Transition(command_entry_, entry);
+  command_entry_ = entry;
+  command_ = set.entry(entry).command;
+  // A transition leads away only from its `from` clip itself, not from another transition.
+  env.SwitchReference(
+      transition >= 0 && env.reference_entry() == set.entry(transition).from ? transition : entry);
+  return true;
+}
+
+bool SteeringTask::Advance(TaskHost& env, std::mt19937_64& rng) {
+  episode_time_ += control_dt_;
+  desired_heading_ = WrapAngle(desired_heading_ + command_.turn * control_dt_);
+  const MotionSetEntry& reference = env.motion_set().entry(env.reference_entry());
+  if (reference.transition() && env.time() >= env.clip().duration() - 1e-9) {
+    env.SwitchReference(reference.to);  // the transition has played: on to its clip
+    return true;
+  }
+  if (random_commands_ && episode_time_ >= next_command_time_) {
+    next_command_time_ += std::uniform_real_distribution<double>(config_.command_interval_min,
+                                                                 config_.command_interval_max)(rng);
+    ChangeCommand(env, RandomCommand(env.motion_set(), rng));
+    return true;
+  }
+  return false;
+}
+
+SteeringTask& Steering(ImitationEnv& env) {
+  auto* steering = dynamic_cast<SteeringTask*>(&env.task());
+  if (steering == nullptr) throw std::logic_error("the environment has no steering task");
+  return *steering;
+}
+
+const SteeringTask& Steering(const ImitationEnv& env) {
+  auto* steering = dynamic_cast<const SteeringTask*>(&env.task());
+  if (steering == nullptr) throw std::logic_error("the environment has no steering task");
+  return *steering;
+}
+
+}  // namespace ragdoll::sim
