@@ -8,8 +8,8 @@
 #include "actor/rollout.h"
 #include "cli/experiment.h"
 #include "learner/checkpoint_file.h"
+#include "learner/checkpoint_store.h"
 #include "learner/learner.h"
-#include "learner/learner_process.h"
 
 namespace ragdoll::cli {
 namespace {

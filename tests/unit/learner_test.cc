@@ -22,6 +22,7 @@
 
 #include "common/config_section.h"
 #include "learner/checkpoint_file.h"
+#include "learner/checkpoint_store.h"
 #include "learner/learner_process.h"
 #include "learner/ppo.h"
 #include "learner/replica_group.h"
