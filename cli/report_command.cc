@@ -16,7 +16,7 @@
 
 #include "cli/report.h"
 #include "common/config_section.h"
-#include "learner/learner_process.h"
+#include "learner/checkpoint_store.h"
 
 namespace ragdoll::cli {
 namespace {

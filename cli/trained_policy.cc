@@ -7,8 +7,8 @@
 
 #include "actor/sim/imitation_env.h"
 #include "common/config_section.h"
+#include "learner/checkpoint_store.h"
 #include "learner/learner.h"
-#include "learner/learner_process.h"
 
 namespace ragdoll::cli {
 

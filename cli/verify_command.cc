@@ -8,8 +8,8 @@
 #include "actor/sim/imitation_env.h"
 #include "cli/experiment.h"
 #include "learner/checkpoint_file.h"
+#include "learner/checkpoint_store.h"
 #include "learner/learner.h"
-#include "learner/learner_process.h"
 
 namespace ragdoll::cli {
 namespace {

@@ -1,7 +1,5 @@
 #include "learner/learner.h"
 
-#include "learner/checkpoint_file.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -13,6 +11,7 @@
 
 #include "common/config_section.h"
 #include "learner/checkpoint_file.h"
+#include "learner/collectives.h"
 #include "learner/ppo.h"
 
 namespace ragdoll::learner {
@@ -39,7 +38,7 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
     : config_(config),
       observation_size_(observation_size),
       action_size_(action_size),
-      group_(group),
+      group_(group != nullptr ? GroupCollectives(*group) : LoneCollectives()),
       local_buffer_size_((config.buffer_size + replicas() - 1) / replicas()),
       local_batch_size_(std::max<int64_t>(1, config.batch_size / replicas())),
       policy_(observation_size, action_size, config.network),
@@ -56,6 +55,10 @@ Learner::Learner(const TrainerConfig& config, int observation_size, int action_s
   optimizer_ = std::make_unique<torch::optim::Adam>(
       params, torch::optim::AdamOptions(config.learning_rate).eps(1e-5));
 }
+
+Learner::~Learner() = default;
+
+int Learner::replicas() const { return group_->size(); }
 
 Learner::Accept Learner::Add(v1::TrajectorySegment segment) {
   if (segment.actions().shape(0) != config_.time_horizon) return Accept::kWrongLength;
@@ -94,40 +97,9 @@ torch::Tensor Learner::ValueToCritic(const torch::Tensor& value) const {
 }
 
 bool Learner::AgreeToUpdate(bool stopping, const std::function<void()>& meanwhile) {
-  if (group_ == nullptr) return !stopping;
   torch::Tensor stop = torch::tensor({int64_t{stopping ? 1 : 0}}, torch::kInt64);
   group_->Sum(stop, meanwhile);
   return stop.item<int64_t>() == 0;
-}
-
-void Learner::MergeStatistics(RunningStats& stats, const torch::Tensor& rows) {
-  torch::Tensor x = rows.contiguous();
-  if (group_ == nullptr) {
-    stats.Update(x.data_ptr<float>(), x.size(0));
-    return;
-  }
-  // Each replica's own moments, then the union's (Chan et al.): its mean from the counts and
-  // sums, then its squared deviations as each replica's plus its mean's distance from the union's.
-  const int size = stats.size();
-  const double n = static_cast<double>(x.size(0));
-  RunningStats::Moments local = RunningStats::BatchMoments(x.data_ptr<float>(), x.size(0), size);
-  torch::Tensor sums = torch::empty({size + 1}, torch::kFloat64);
-  double* s = sums.data_ptr<double>();
-  s[0] = n;
-  for (int j = 0; j < size; ++j) s[1 + j] = n * local.mean[j];
-  group_->Sum(sums);
-  const double count = s[0];
-  if (count <= 0) return;
-  std::vector<double> mean(size);
-  for (int j = 0; j < size; ++j) mean[j] = s[1 + j] / count;
-  torch::Tensor m2 = torch::empty({size}, torch::kFloat64);
-  double* m = m2.data_ptr<double>();
-  for (int j = 0; j < size; ++j) {
-    const double d = local.mean[j] - mean[j];
-    m[j] = local.m2[j] + n * d * d;
-  }
-  group_->Sum(m2);
-  stats.Merge(count, mean, std::vector<double>(m, m + size));
 }
 
 int64_t Learner::trained_parameters() const {
@@ -136,227 +108,168 @@ int64_t Learner::trained_parameters() const {
   return n;
 }
 
-void Learner::ViewGradientsInGroupBuffer(const std::vector<torch::Tensor>& params) {
-  const int64_t total = trained_parameters() + 1;  // and the KL slot
-  bool viewing = group_gradients_.defined() && group_gradients_.numel() == total;
-  float* base = viewing ? group_gradients_.data_ptr<float>() : nullptr;
-  int64_t offset = 0;
-  for (const auto& p : params) {
-    viewing = viewing && p.grad().defined() && p.grad().data_ptr<float>() == base + offset;
-    offset += p.numel();
-  }
-  if (viewing) return;
-  group_gradients_ = torch::zeros({total}, torch::kFloat32);
-  offset = 0;
-  for (const auto& p : params) {
-    const int64_t n = p.numel();
-    torch::Tensor view = group_gradients_.slice(0, offset, offset + n).view_as(p);
-    if (p.grad().defined()) view.copy_(p.grad());
-    p.mutable_grad() = view;
-    offset += n;
-  }
-}
-
 void Learner::SyncFromRankZero() {
-  if (group_ == nullptr) return;
-  std::string state = group_->Broadcast(group_->rank() == 0 ? SaveToBytes("") : std::string());
-  if (group_->rank() != 0) LoadFromBytes(state, "the state of learner replica 0");
+  auto state = group_->FromRankZero([this] { return SaveToBytes(""); });
+  if (state) LoadFromBytes(*state, "the state of learner replica 0");
 }
 
-UpdateStats Learner::Update() {
-  auto start = std::chrono::steady_clock::now();
+// The buffer as tensors: N segments of T steps.
+struct Learner::Rollout {
+  torch::Tensor obs;                    // [N, T + 1, O]
+  torch::Tensor actions;                // [N, T, A]
+  torch::Tensor logprobs, rewards;      // [N, T]
+  torch::Tensor terminated, truncated;  // [N, T], 0 or 1
+  torch::Tensor finals;  // [F, O]: final observations of episodes truncated inside a segment
+  std::vector<std::pair<int64_t, int64_t>> final_at;  // their (segment, step)
+};
+
+// The rollout flattened to B = N * T samples, with CleanRL's names.
+struct Learner::Batch {
+  int64_t size = 0;
+  torch::Tensor b_obs;  // normalised as the actors normalised them
+  torch::Tensor b_actions, b_logprobs, b_advantages, b_returns, b_values;
+  // The returns and values in the critic's units (network_settings.normalize_value).
+  torch::Tensor b_value_targets, b_old_values;
+};
+
+Learner::Rollout Learner::GatherBuffer() const {
   const int64_t N = static_cast<int64_t>(buffer_.size());
   const int64_t T = config_.time_horizon;
   const int O = observation_size_, A = action_size_;
-
-  // Gather the buffer into [N, T(+1), ...] tensors.
-  torch::Tensor obs = torch::empty({N, T + 1, O});
-  torch::Tensor actions = torch::empty({N, T, A});
-  torch::Tensor logprobs = torch::empty({N, T});
-  torch::Tensor rewards = torch::empty({N, T});
-  torch::Tensor terminated = torch::empty({N, T});
-  torch::Tensor truncated = torch::empty({N, T});
-  std::vector<float> finals;                          // final observations of inner truncations
-  std::vector<std::pair<int64_t, int64_t>> final_at;  // their (segment, step)
+  Rollout r;
+  r.obs = torch::empty({N, T + 1, O});
+  r.actions = torch::empty({N, T, A});
+  r.logprobs = torch::empty({N, T});
+  r.rewards = torch::empty({N, T});
+  r.terminated = torch::empty({N, T});
+  r.truncated = torch::empty({N, T});
+  std::vector<float> finals;
   for (int64_t n = 0; n < N; ++n) {
     const auto& s = buffer_[n];
-    std::memcpy(obs[n].data_ptr<float>(), s.observations().data().data(), (T + 1) * O * 4);
-    std::memcpy(actions[n].data_ptr<float>(), s.actions().data().data(), T * A * 4);
-    std::memcpy(logprobs[n].data_ptr<float>(), s.log_probs().data().data(), T * 4);
-    std::memcpy(rewards[n].data_ptr<float>(), s.rewards().data().data(), T * 4);
+    std::memcpy(r.obs[n].data_ptr<float>(), s.observations().data().data(), (T + 1) * O * 4);
+    std::memcpy(r.actions[n].data_ptr<float>(), s.actions().data().data(), T * A * 4);
+    std::memcpy(r.logprobs[n].data_ptr<float>(), s.log_probs().data().data(), T * 4);
+    std::memcpy(r.rewards[n].data_ptr<float>(), s.rewards().data().data(), T * 4);
     const uint8_t* term = wire::ByteData(s.terminated());
     const uint8_t* trunc = wire::ByteData(s.truncated());
     const float* fin = wire::FloatData(s.final_observations());
     int64_t k = 0;
     for (int64_t t = 0; t < T; ++t) {
-      terminated[n][t] = static_cast<float>(term[t]);
-      truncated[n][t] = static_cast<float>(trunc[t]);
+      r.terminated[n][t] = static_cast<float>(term[t]);
+      r.truncated[n][t] = static_cast<float>(trunc[t]);
       if (trunc[t] && t < T - 1) {
         finals.insert(finals.end(), fin + k * O, fin + (k + 1) * O);
-        final_at.emplace_back(n, t);
+        r.final_at.emplace_back(n, t);
         ++k;
       }
     }
   }
+  if (!r.final_at.empty()) {
+    r.finals =
+        torch::from_blob(finals.data(), {static_cast<int64_t>(r.final_at.size()), O}).clone();
+  }
+  return r;
+}
 
+Learner::Batch Learner::ComputeAdvantages(const Rollout& r) {
+  const int64_t N = r.obs.size(0), T = config_.time_horizon;
+  const int O = observation_size_, A = action_size_;
   torch::Tensor values, next_values;
   {
     torch::NoGradGuard no_grad;
     torch::Tensor all_values = ValueFromCritic(
-        critic_->forward(Normalize(obs.reshape({N * (T + 1), O}))).reshape({N, T + 1}));
+        critic_->forward(Normalize(r.obs.reshape({N * (T + 1), O}))).reshape({N, T + 1}));
     values = all_values.slice(1, 0, T).contiguous();
     next_values = all_values.slice(1, 1, T + 1).clone();
-    if (!final_at.empty()) {
-      torch::Tensor f =
-          torch::from_blob(finals.data(), {static_cast<int64_t>(final_at.size()), O}).clone();
-      torch::Tensor fv = ValueFromCritic(critic_->forward(Normalize(f)));
-      for (size_t i = 0; i < final_at.size(); ++i) {
-        next_values[final_at[i].first][final_at[i].second] = fv[static_cast<int64_t>(i)];
+    if (!r.final_at.empty()) {
+      torch::Tensor fv = ValueFromCritic(critic_->forward(Normalize(r.finals)));
+      for (size_t i = 0; i < r.final_at.size(); ++i) {
+        next_values[r.final_at[i].first][r.final_at[i].second] = fv[static_cast<int64_t>(i)];
       }
     }
   }
-  GaeResult gae =
-      ComputeGae(rewards, values, next_values, terminated, truncated, config_.gamma, config_.lambd);
+  GaeResult gae = ComputeGae(r.rewards, values, next_values, r.terminated, r.truncated,
+                             config_.gamma, config_.lambd);
 
-  const int64_t B = N * T;
-  torch::Tensor b_obs = Normalize(obs.slice(1, 0, T).reshape({B, O}));
-  torch::Tensor b_actions = actions.reshape({B, A});
-  torch::Tensor b_logprobs = logprobs.reshape({B});
-  torch::Tensor b_advantages = gae.advantages.reshape({B});
-  torch::Tensor b_returns = gae.returns.reshape({B});
-  torch::Tensor b_values = values.reshape({B});
+  Batch b;
+  const int64_t B = b.size = N * T;
+  b.b_obs = Normalize(r.obs.slice(1, 0, T).reshape({B, O}));
+  b.b_actions = r.actions.reshape({B, A});
+  b.b_logprobs = r.logprobs.reshape({B});
+  b.b_advantages = gae.advantages.reshape({B});
+  b.b_returns = gae.returns.reshape({B});
+  b.b_values = values.reshape({B});
   // The critic learns (and its loss is clipped) in normalised units: the statistics take in this
   // buffer's returns first, so the targets are scaled by what they are now.
-  if (config_.normalize_value) MergeStatistics(return_stats_, b_returns.reshape({B, 1}));
-  torch::Tensor b_value_targets = ValueToCritic(b_returns);
-  torch::Tensor b_old_values = ValueToCritic(b_values);
+  if (config_.normalize_value) group_->MergeStatistics(return_stats_, b.b_returns.reshape({B, 1}));
+  b.b_value_targets = ValueToCritic(b.b_returns);
+  b.b_old_values = ValueToCritic(b.b_values);
+  return b;
+}
 
-  UpdateStats stats;
-  using Schedule = TrainerConfig::Schedule;
-  auto set_learning_rate = [this](double lr) {
-    for (auto& group : optimizer_->param_groups()) {
-      static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
-    }
-  };
+double Learner::ScheduledLearningRate() const {
   switch (config_.schedule) {
-    case Schedule::kLinear:
-      stats.learning_rate = LinearSchedule(config_.learning_rate, samples_, config_.max_steps);
-      break;
-    case Schedule::kConstant:
-      stats.learning_rate = config_.learning_rate;
-      break;
-    case Schedule::kAdaptive:
-      stats.learning_rate = adaptive_learning_rate_;
-      break;
+    case TrainerConfig::Schedule::kLinear:
+      return LinearSchedule(config_.learning_rate, samples_, config_.max_steps);
+    case TrainerConfig::Schedule::kConstant:
+      return config_.learning_rate;
+    case TrainerConfig::Schedule::kAdaptive:
+      return adaptive_learning_rate_;
   }
-  set_learning_rate(stats.learning_rate);
+  return config_.learning_rate;
+}
+
+void Learner::SetLearningRate(double learning_rate) {
+  for (auto& group : optimizer_->param_groups()) {
+    static_cast<torch::optim::AdamOptions&>(group.options()).lr(learning_rate);
+  }
+}
+
+bool Learner::MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
+                            const torch::Tensor& mb_advantages, const OldPolicy& old,
+                            UpdateStats& stats) {
   PpoLossConfig loss_config;
   loss_config.clip_coef = config_.epsilon;
   loss_config.clip_vloss = config_.clip_value_loss;
   loss_config.vf_coef = config_.value_coef;
   loss_config.ent_coef = config_.beta;
-  // Replicas normalise each minibatch's advantages by the whole group's minibatch (below).
-  loss_config.norm_adv = group_ == nullptr;
+  loss_config.norm_adv = false;  // normalised over the group's minibatch already
 
-  // The policy this update starts from, to measure how far each step has moved it.
-  torch::Tensor old_means, old_log_std;
-  {
-    torch::NoGradGuard no_grad;
-    old_means = policy_->forward(b_obs);
-    old_log_std = policy_->log_std.detach().clone();
+  auto current =
+      policy_->Evaluate(b.b_obs.index_select(0, mb_inds), b.b_actions.index_select(0, mb_inds));
+  double update_kl =
+      GaussianKl(old.means.index_select(0, mb_inds), old.log_std, current.mean, policy_->log_std);
+  torch::Tensor newvalue = critic_->forward(b.b_obs.index_select(0, mb_inds));
+  PpoLoss loss = ComputePpoLoss(loss_config, current.log_prob, current.entropy, newvalue,
+                                b.b_logprobs.index_select(0, mb_inds), mb_advantages,
+                                b.b_value_targets.index_select(0, mb_inds),
+                                b.b_old_values.index_select(0, mb_inds));
+  update_kl = group_->Backward(*optimizer_, loss.loss, update_kl);
+  const std::vector<torch::Tensor>& params = optimizer_->param_groups()[0].params();
+  double norm = torch::nn::utils::clip_grad_norm_(params, config_.max_grad_norm);
+  if (!std::isfinite(norm)) {
+    // A non-finite gradient never reaches the weights.
+    ++stats.skipped_steps;
+    return false;
   }
+  optimizer_->step();
+  if (config_.schedule == TrainerConfig::Schedule::kAdaptive) {
+    adaptive_learning_rate_ =
+        AdaptiveLearningRate(adaptive_learning_rate_, update_kl, config_.target_kl);
+    SetLearningRate(adaptive_learning_rate_);
+    stats.learning_rate = adaptive_learning_rate_;
+  }
+  stats.policy_loss += loss.pg_loss;
+  stats.value_loss += loss.v_loss;
+  stats.entropy += loss.entropy;
+  stats.approx_kl += loss.approx_kl;
+  stats.update_kl = update_kl;
+  stats.clip_fraction += loss.clipfrac;
+  return true;
+}
 
-  std::vector<torch::Tensor> params = optimizer_->param_groups()[0].params();
-  int64_t minibatches = 0;
-  int64_t mb = std::min(local_batch_size_, B);
-  // Every replica takes the same number of gradient steps. A replica that holds more than its
-  // share (it took segments while waiting for the others) takes larger minibatches, and its
-  // gradient weighs by its minibatch's part of the group's: the group's step is the mean over
-  // the union of the replicas' minibatches, as one learner's would be.
-  torch::Tensor steps = torch::tensor({B / mb}, torch::kInt64);
-  if (group_ != nullptr) group_->Min(steps);
-  const int64_t steps_per_epoch = steps.item<int64_t>();
-  double weight = 1;  // this replica's share of the group's minibatch
-  if (group_ != nullptr) {
-    mb = B / steps_per_epoch;
-    torch::Tensor group_mb = torch::tensor({mb}, torch::kInt64);
-    group_->Sum(group_mb);
-    weight = static_cast<double>(mb) / static_cast<double>(group_mb.item<int64_t>());
-  }
-  for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
-    torch::Tensor order = torch::randperm(B, torch::kLong);
-    // The group's minibatch is the union of the replicas' ones: each step normalises its
-    // advantages by that union's mean and (unbiased) standard deviation, as one learner would.
-    // The advantages stay fixed through the update, so one collective per epoch carries every
-    // step's moments (sum, sum of squares, count; float64).
-    torch::Tensor moments;
-    if (group_ != nullptr) {
-      torch::Tensor a = b_advantages.index_select(0, order.slice(0, 0, steps_per_epoch * mb))
-                            .to(torch::kFloat64)
-                            .reshape({steps_per_epoch, mb});
-      moments =
-          torch::stack({a.sum(1), a.pow(2).sum(1),
-                        torch::full({steps_per_epoch}, static_cast<double>(mb), torch::kFloat64)},
-                       1)
-              .contiguous();
-      group_->Sum(moments);
-    }
-    for (int64_t step = 0; step < steps_per_epoch; ++step) {
-      torch::Tensor idx = order.slice(0, step * mb, (step + 1) * mb);
-      auto current = policy_->Evaluate(b_obs.index_select(0, idx), b_actions.index_select(0, idx));
-      double update_kl =
-          GaussianKl(old_means.index_select(0, idx), old_log_std, current.mean, policy_->log_std);
-      torch::Tensor newvalue = critic_->forward(b_obs.index_select(0, idx));
-      torch::Tensor advantages = b_advantages.index_select(0, idx);
-      if (group_ != nullptr) {
-        const double* m = moments.data_ptr<double>() + 3 * step;
-        const double n = m[2];
-        const double mean = m[0] / n;
-        const double var = n > 1 ? std::max(0.0, (m[1] - n * mean * mean) / (n - 1)) : 0.0;
-        if (n > 1) advantages = (advantages - mean) / (std::sqrt(var) + 1e-8);
-      }
-      PpoLoss loss = ComputePpoLoss(
-          loss_config, current.log_prob, current.entropy, newvalue, b_logprobs.index_select(0, idx),
-          advantages, b_value_targets.index_select(0, idx), b_old_values.index_select(0, idx));
-      if (group_ == nullptr) {
-        optimizer_->zero_grad();
-        loss.loss.backward();
-      } else {
-        // One all-reduce per step, on the gradients in place: every gradient and this step's
-        // KL, each weighted by this replica's share first, so their sum is the group's mean.
-        // Overlapping it with the backward pass measured slower on pinned cores, both by hand
-        // (the critic's bucket) and with DDP's own c10d::Reducer: the transfer takes the same
-        // core (docs/learner-scaling.md).
-        ViewGradientsInGroupBuffer(params);
-        group_gradients_.zero_();
-        (loss.loss * weight).backward();
-        float* kl_slot = group_gradients_.data_ptr<float>() + group_gradients_.numel() - 1;
-        *kl_slot = static_cast<float>(update_kl * weight);
-        group_->Sum(group_gradients_);
-        update_kl = *kl_slot;
-      }
-      double norm = torch::nn::utils::clip_grad_norm_(params, config_.max_grad_norm);
-      if (!std::isfinite(norm)) {
-        // A non-finite gradient never reaches the weights.
-        ++stats.skipped_steps;
-        continue;
-      }
-      optimizer_->step();
-      if (config_.schedule == Schedule::kAdaptive) {
-        adaptive_learning_rate_ =
-            AdaptiveLearningRate(adaptive_learning_rate_, update_kl, config_.target_kl);
-        set_learning_rate(adaptive_learning_rate_);
-        stats.learning_rate = adaptive_learning_rate_;
-      }
-      stats.policy_loss += loss.pg_loss;
-      stats.value_loss += loss.v_loss;
-      stats.entropy += loss.entropy;
-      stats.approx_kl += loss.approx_kl;
-      stats.update_kl = update_kl;
-      stats.clip_fraction += loss.clipfrac;
-      ++minibatches;
-    }
-  }
+void Learner::FinishStatistics(const Batch& b, int64_t minibatches, double weight,
+                               UpdateStats& stats) {
   if (minibatches > 0) {
     stats.policy_loss /= minibatches;
     stats.value_loss /= minibatches;
@@ -364,55 +277,89 @@ UpdateStats Learner::Update() {
     stats.approx_kl /= minibatches;
     stats.clip_fraction /= minibatches;
   }
-  stats.explained_variance = ExplainedVariance(b_values, b_returns);
-  if (group_ != nullptr) {
-    // The group's means of what each replica measured on its share, weighted as its gradients.
-    torch::Tensor reported =
-        torch::tensor({stats.policy_loss, stats.value_loss, stats.entropy, stats.approx_kl,
-                       stats.clip_fraction, stats.explained_variance},
-                      torch::kFloat64)
-            .mul_(weight);
-    group_->Sum(reported);
-    stats.policy_loss = reported[0].item<double>();
-    stats.value_loss = reported[1].item<double>();
-    stats.entropy = reported[2].item<double>();
-    stats.approx_kl = reported[3].item<double>();
-    stats.clip_fraction = reported[4].item<double>();
-    stats.explained_variance = reported[5].item<double>();
+  stats.explained_variance = ExplainedVariance(b.b_values, b.b_returns);
+  // The group's means of what each replica measured on its share, weighted as its gradients.
+  torch::Tensor reported =
+      torch::tensor({stats.policy_loss, stats.value_loss, stats.entropy, stats.approx_kl,
+                     stats.clip_fraction, stats.explained_variance},
+                    torch::kFloat64)
+          .mul_(weight);
+  group_->Sum(reported);
+  stats.policy_loss = reported[0].item<double>();
+  stats.value_loss = reported[1].item<double>();
+  stats.entropy = reported[2].item<double>();
+  stats.approx_kl = reported[3].item<double>();
+  stats.clip_fraction = reported[4].item<double>();
+  stats.explained_variance = reported[5].item<double>();
+}
+
+int64_t Learner::SumEpisodesOverGroup(int64_t samples) {
+  EpisodeStatsSum& e = episodes_;
+  std::vector<double> local = {static_cast<double>(samples),
+                               static_cast<double>(e.episodes),
+                               e.episode_return,
+                               e.normalized_return,
+                               e.length,
+                               e.falls};
+  local.insert(local.end(), e.figures.begin(), e.figures.end());
+  torch::Tensor sums = torch::tensor(local, torch::kFloat64);
+  group_->Sum(sums);
+  e.episodes = static_cast<int64_t>(sums[1].item<double>());
+  double* fields[] = {&e.episode_return, &e.normalized_return, &e.length, &e.falls};
+  for (int i = 0; i < 4; ++i) *fields[i] = sums[2 + i].item<double>();
+  for (size_t i = 0; i < e.figures.size(); ++i) e.figures[i] = sums[6 + i].item<double>();
+  return static_cast<int64_t>(sums[0].item<double>());
+}
+
+int64_t Learner::NextVersion() {
+  // Numbering continues above any version an actor already runs (this learner resumed from an
+  // older checkpoint); every replica takes the group's newest.
+  torch::Tensor negated = torch::tensor({-std::max(version_, newest_seen_)}, torch::kInt64);
+  group_->Min(negated);
+  return -negated[0].item<int64_t>() + 1;
+}
+
+UpdateStats Learner::Update() {
+  const auto start = std::chrono::steady_clock::now();
+  const Rollout rollout = GatherBuffer();
+  const Batch b = ComputeAdvantages(rollout);
+
+  UpdateStats stats;
+  stats.learning_rate = ScheduledLearningRate();
+  SetLearningRate(stats.learning_rate);
+  // The policy this update starts from, to measure how far each step has moved it.
+  OldPolicy old;
+  {
+    torch::NoGradGuard no_grad;
+    old.means = policy_->forward(b.b_obs);
+    old.log_std = policy_->log_std.detach().clone();
   }
+
+  const Minibatches minibatches = group_->Split(b.size, local_batch_size_);
+  int64_t steps_taken = 0;
+  for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
+    const torch::Tensor b_inds = torch::randperm(b.size, torch::kLong);
+    group_->StartEpoch(b.b_advantages, b_inds);
+    for (int64_t step = 0; step < minibatches.steps; ++step) {
+      const torch::Tensor mb_inds =
+          b_inds.slice(0, step * minibatches.size, (step + 1) * minibatches.size);
+      const torch::Tensor mb_advantages =
+          group_->NormalizedAdvantages(b.b_advantages.index_select(0, mb_inds), step);
+      if (MinibatchStep(b, mb_inds, mb_advantages, old, stats)) ++steps_taken;
+    }
+  }
+  FinishStatistics(b, steps_taken, minibatches.weight, stats);
 
   // The statistics change only after the update, so the update normalised observations exactly
   // as the actors did when they chose the actions.
-  if (config_.normalize) MergeStatistics(stats_, obs.slice(1, 0, T).reshape({B, O}));
-  int64_t group_samples = B;
-  if (group_ != nullptr) {
-    EpisodeStatsSum& e = episodes_;
-    std::vector<double> local = {static_cast<double>(B),
-                                 static_cast<double>(e.episodes),
-                                 e.episode_return,
-                                 e.normalized_return,
-                                 e.length,
-                                 e.falls};
-    local.insert(local.end(), e.figures.begin(), e.figures.end());
-    torch::Tensor sums = torch::tensor(local, torch::kFloat64);
-    group_->Sum(sums);
-    group_samples = static_cast<int64_t>(sums[0].item<double>());
-    e.episodes = static_cast<int64_t>(sums[1].item<double>());
-    double* fields[] = {&e.episode_return, &e.normalized_return, &e.length, &e.falls};
-    for (int i = 0; i < 4; ++i) *fields[i] = sums[2 + i].item<double>();
-    for (size_t i = 0; i < e.figures.size(); ++i) e.figures[i] = sums[6 + i].item<double>();
+  const int64_t T = config_.time_horizon;
+  if (config_.normalize) {
+    group_->MergeStatistics(stats_,
+                            rollout.obs.slice(1, 0, T).reshape({b.size, observation_size_}));
   }
-  samples_ += group_samples;
-  stats.samples = group_samples;
-  // Numbering continues above any version an actor already runs (this learner resumed from an
-  // older checkpoint); every replica takes the group's newest.
-  int64_t next = std::max(version_, newest_seen_);
-  if (group_ != nullptr) {
-    torch::Tensor negated = torch::tensor({-next}, torch::kInt64);
-    group_->Min(negated);
-    next = -negated[0].item<int64_t>();
-  }
-  version_ = next + 1;
+  stats.samples = SumEpisodesOverGroup(b.size);
+  samples_ += stats.samples;
+  version_ = NextVersion();
   ++iterations_;
   buffer_.clear();
   buffered_samples_ = 0;

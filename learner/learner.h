@@ -18,6 +18,8 @@
 
 namespace ragdoll::learner {
 
+class Collectives;
+
 // Means over the minibatches of one update.
 struct UpdateStats {
   double policy_loss = 0;
@@ -55,6 +57,7 @@ class Learner {
   // group, so all replicas take the same steps. Without one, the learner is alone.
   Learner(const TrainerConfig& config, int observation_size, int action_size,
           ReplicaGroup* group = nullptr);
+  ~Learner();
 
   enum class Accept { kAccepted, kStale, kWrongLength };
   // Adds a segment that passed wire::CheckSegment for this learner's sizes (moved in when the
@@ -128,25 +131,39 @@ class Learner {
   torch::optim::Adam& optimizer() { return *optimizer_; }
 
  private:
-  int replicas() const { return group_ != nullptr ? group_->size() : 1; }
+  struct Rollout;
+  struct Batch;
+  struct OldPolicy {  // the policy an update starts from
+    torch::Tensor means, log_std;
+  };
+
+  int replicas() const;
   torch::Tensor Normalize(const torch::Tensor& observations) const;
   torch::Tensor ValueFromCritic(const torch::Tensor& output) const;
   torch::Tensor ValueToCritic(const torch::Tensor& value) const;
-  // The running statistics take in `rows` rows ([rows, size] float32) of this replica and, with
-  // replicas, of every other one.
-  void MergeStatistics(RunningStats& stats, const torch::Tensor& rows);
+  // The steps of Update, in order.
+  Rollout GatherBuffer() const;
+  Batch ComputeAdvantages(const Rollout& rollout);
+  double ScheduledLearningRate() const;
+  void SetLearningRate(double learning_rate);
+  // One gradient step on the minibatch `mb_inds` of `b`; false when skipped for a non-finite
+  // gradient.
+  bool MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
+                     const torch::Tensor& mb_advantages, const OldPolicy& old, UpdateStats& stats);
+  // The means over the `minibatches` steps taken, then over the group.
+  void FinishStatistics(const Batch& b, int64_t minibatches, double weight, UpdateStats& stats);
+  // The group's episode figures and samples (returned), from each replica's.
+  int64_t SumEpisodesOverGroup(int64_t samples);
+  int64_t NextVersion();
   void SaveArchive(torch::serialize::OutputArchive& archive, const std::string& config_text,
                    bool with_optimizer = true);
   std::string LoadArchive(torch::serialize::InputArchive& archive, const std::string& source);
-  // With replicas: makes every parameter's gradient a view into group_gradients_ (re-made if a
-  // parameter was replaced), so one all-reduce works on the gradients without copies.
-  void ViewGradientsInGroupBuffer(const std::vector<torch::Tensor>& params);
 
   TrainerConfig config_;
   int observation_size_, action_size_;
-  ReplicaGroup* group_;
-  int64_t local_buffer_size_;  // this replica's share of buffer_size
-  int64_t local_batch_size_;   // and of batch_size
+  std::unique_ptr<Collectives> group_;  // of one, when the learner is alone
+  int64_t local_buffer_size_;           // this replica's share of buffer_size
+  int64_t local_batch_size_;            // and of batch_size
   GaussianPolicy policy_;
   ValueNetwork critic_;
   std::unique_ptr<torch::optim::Adam> optimizer_;
@@ -164,8 +181,6 @@ class Learner {
   // The adaptive schedule's current rate (saved with checkpoints, so --resume continues it).
   double adaptive_learning_rate_;
   EpisodeStatsSum episodes_;
-  // Every gradient, then one slot for the step's KL: what the replicas all-reduce each step.
-  torch::Tensor group_gradients_;
 };
 
 }  // namespace ragdoll::learner

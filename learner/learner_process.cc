@@ -11,10 +11,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <map>
+#include <memory>
 #include <optional>
-#include <sstream>
-#include <string>
 #include <thread>
 #include <utility>
 #include <vector>
@@ -22,184 +20,16 @@
 #include "common/config_section.h"
 #include "common/metrics.h"
 #include "common/wire.h"
-#include "learner/checkpoint_file.h"
+#include "learner/checkpoint_store.h"
 #include "learner/learner.h"
 #include "learner/replica_group.h"
+#include "learner/training_log.h"
 
 namespace ragdoll::learner {
 namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-std::string Duration(double seconds) {
-  if (!(seconds >= 0) || seconds > 1e8) return "--:--:--";
-  long s = static_cast<long>(seconds);
-  char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
-  return buffer;
-}
-
-}  // namespace
-
-std::vector<fs::path> Checkpoints(const fs::path& folder) {
-  std::vector<fs::path> out;
-  if (!fs::is_directory(folder)) return out;
-  for (const auto& entry : fs::directory_iterator(folder)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind("checkpoint-", 0) == 0 && entry.path().extension() == ".pt") {
-      out.push_back(entry.path());
-    }
-  }
-  std::sort(out.begin(), out.end());  // names carry zero-padded sample counts
-  return out;
-}
-
-// The columns of a new metrics.csv: the learner's own, then one per episode figure.
-std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names) {
-  std::vector<std::string> columns = {
-      "iteration",          "version",       "samples",           "elapsed_s",      "samples_per_s",
-      "episodes",           "mean_return",   "normalized_return", "episode_length", "fall_rate",
-      "policy_loss",        "value_loss",    "entropy",           "approx_kl",      "clip_fraction",
-      "explained_variance", "learning_rate", "update_s",          "stale_dropped",  "rejected",
-      "idle_fraction",      "update_kl"};
-  columns.insert(columns.end(), figure_names.begin(), figure_names.end());
-  return columns;
-}
-
-namespace {
-
-// The columns an existing metrics.csv names in its first line.
-std::vector<std::string> CsvHeader(const fs::path& path) {
-  std::ifstream in(path);
-  std::string line, cell;
-  std::getline(in, line);
-  std::vector<std::string> columns;
-  std::istringstream cells(line);
-  while (std::getline(cells, cell, ',')) columns.push_back(cell);
-  return columns;
-}
-
-std::string JoinCells(const std::vector<std::string>& cells) {
-  std::string line;
-  for (const std::string& c : cells) line += (line.empty() ? "" : ",") + c;
-  return line;
-}
-
-}  // namespace
-
-std::string MetricsRow(const std::vector<std::string>& columns,
-                       const std::map<std::string, std::string>& cells) {
-  std::vector<std::string> row;
-  for (const std::string& c : columns) {
-    auto it = cells.find(c);
-    row.push_back(it == cells.end() ? "0" : it->second);
-  }
-  return JoinCells(row);
-}
-
-namespace {
-
-// A value as the metrics.csv writes it (an ostream's default format).
-template <typename T>
-std::string Cell(T value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
-
-// The learner's Prometheus series. Episode and PPO figures are gauges holding the latest PPO
-// iteration's means; totals are counters of this process (a resumed run's totals are gauges).
-struct LearnerMetrics {
-  LearnerMetrics(MetricsEndpoint& m, const std::vector<std::string>& figure_names, int reward_terms)
-      : episode_return(
-            m.Gauge("ragdoll_episode_return",
-                    "Mean undiscounted return of the episodes of the last PPO iteration")),
-        normalized_return(m.Gauge("ragdoll_episode_normalized_return",
-                                  "Mean return per step relative to the maximum (0..1) of the "
-                                  "episodes of the last PPO iteration")),
-        episode_length(m.Gauge("ragdoll_episode_length_steps",
-                               "Mean episode length in control steps, last PPO iteration")),
-        fall_ratio(m.Gauge("ragdoll_episode_fall_ratio",
-                           "Fraction of the last PPO iteration's episodes that ended in a fall")),
-        episodes(m.Counter("ragdoll_episodes_total", "Episodes finished by all actors")),
-        policy_loss(m.Gauge("ragdoll_ppo_policy_loss", "Clipped surrogate loss, last update")),
-        value_loss(m.Gauge("ragdoll_ppo_value_loss", "Value loss, last update")),
-        entropy(m.Gauge("ragdoll_ppo_entropy", "Policy entropy (nats), last update")),
-        approx_kl(m.Gauge("ragdoll_ppo_approx_kl", "Approximate KL divergence, last update")),
-        clip_fraction(m.Gauge("ragdoll_ppo_clip_ratio",
-                              "Fraction of samples whose ratio was clipped, last update")),
-        explained_variance(m.Gauge("ragdoll_ppo_explained_variance",
-                                   "Explained variance of the value targets, last update")),
-        learning_rate(m.Gauge("ragdoll_ppo_learning_rate", "Adam learning rate")),
-        updates(m.Counter("ragdoll_ppo_updates_total", "PPO updates run by this learner process")),
-        update_seconds(m.Histogram("ragdoll_ppo_update_duration_seconds",
-                                   "Wall time of one PPO update (all epochs)",
-                                   {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64})),
-        skipped_steps(m.Counter("ragdoll_ppo_skipped_gradient_steps_total",
-                                "Gradient steps skipped for a non-finite gradient")),
-        samples(m.Counter(
-            "ragdoll_learner_samples_total",
-            "Samples trained on by this learner process (by its group: counted by replica 0)")),
-        run_samples(m.Gauge("ragdoll_learner_run_samples",
-                            "Samples trained on in the whole run (continues after a resume)")),
-        samples_per_second(m.Gauge("ragdoll_learner_samples_per_second",
-                                   "Samples per second over the last PPO iteration")),
-        version(m.Gauge("ragdoll_policy_version", "Version of the newest policy")),
-        lag(m.Histogram("ragdoll_learner_policy_lag_versions",
-                        "Policy versions between a segment's behaviour policy and the learner's",
-                        {0, 1, 2, 3, 5, 10, 20})),
-        stale(m.Counter("ragdoll_learner_stale_segments_dropped_total",
-                        "Segments dropped for exceeding max_policy_lag")),
-        checkpoints(m.Counter("ragdoll_learner_checkpoints_total", "Checkpoints written")),
-        checkpoint_failures(m.Counter("ragdoll_learner_checkpoint_failures_total",
-                                      "Checkpoints that could not be written (full disk, file "
-                                      "size limit); training went on")),
-        idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
-                               "Wall time spent waiting for segments (nothing to do)")) {
-    for (int i = 0; i < static_cast<int>(figure_names.size()); ++i) {
-      figures.push_back(
-          i < reward_terms
-              ? &m.Gauge("ragdoll_episode_reward_term",
-                         "Mean per-step value (0..1) of one reward term (the imitation terms and "
-                         "a task's weighted term), last PPO iteration",
-                         {{"term", figure_names[i]}})
-              : &m.Gauge("ragdoll_episode_figure",
-                         "Mean per-step value of one of a task's episode figures (steering: "
-                         "speed_error in m/s, heading_error in rad), last PPO iteration",
-                         {{"figure", figure_names[i]}}));
-    }
-    for (int r = 1; r <= static_cast<int>(wire::Rejection::kRunId); ++r) {
-      rejected.push_back(&m.Counter(
-          "ragdoll_learner_rejected_messages_total", "Messages dropped by the learner, by reason",
-          {{"reason", wire::RejectionName(static_cast<wire::Rejection>(r))}}));
-    }
-  }
-
-  prometheus::Gauge &episode_return, &normalized_return, &episode_length, &fall_ratio;
-  prometheus::Counter& episodes;
-  prometheus::Gauge &policy_loss, &value_loss, &entropy, &approx_kl, &clip_fraction,
-      &explained_variance, &learning_rate;
-  prometheus::Counter& updates;
-  prometheus::Histogram& update_seconds;
-  prometheus::Counter &skipped_steps, &samples;
-  prometheus::Gauge &run_samples, &samples_per_second, &version;
-  prometheus::Histogram& lag;
-  prometheus::Counter &stale, &checkpoints, &checkpoint_failures, &idle_seconds;
-  std::vector<prometheus::Gauge*> figures;     // as the environment's figure names
-  std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
-};
-
-// Samples of a checkpoint file, from its name; -1 for "".
-int64_t CheckpointSamples(const std::string& path) {
-  if (path.empty()) return -1;
-  const std::string stem = fs::path(path).stem().string();  // checkpoint-000000507904
-  try {
-    return std::stoll(stem.substr(stem.find('-') + 1));
-  } catch (const std::exception&) {
-    return 0;
-  }
-}
 
 // learner.address, else 127.0.0.1 with a broker on loopback, else the address this host's name
 // resolves to (a container's address on its compose network), else the name itself.
@@ -299,96 +129,43 @@ int64_t BrokerSnapshotVersion(zmq::context_t& context, const LearnerProcessConfi
   return -1;
 }
 
-}  // namespace
-
-ReplicaSettings ReadReplicaSettings(const ConfigSection& section) {
-  ReplicaSettings s;
-  s.replicas = section.Get<int>("replicas", s.replicas);
-  if (s.replicas < 1 || s.replicas > 4096) section.Fail("replicas", "must be 1 to 4096");
-  s.store_port = section.GetPort("store_port", s.store_port);
-  s.address = section.Get<std::string>("address", s.address);
-  s.timeout = section.Get<double>("timeout", s.timeout);
-  if (!(s.timeout >= 1)) section.Fail("timeout", "must be at least 1 (seconds)");
-  section.Finish();
-  return s;
+// Joins the group of replicas (config.replica) through the broker; nullptr when stopped first.
+std::unique_ptr<ReplicaGroup> JoinReplicas(zmq::context_t& context,
+                                           const LearnerProcessConfig& config,
+                                           const Endpoints& endpoints,
+                                           const std::atomic<bool>& stop) {
+  const int64_t newest = config.resume ? CheckpointSamples(FindGoodCheckpoint(config.run_dir)) : -1;
+  auto assignment = JoinGroup(context, config, endpoints, newest, stop);
+  if (!assignment) return nullptr;
+  ReplicaGroupConfig g;
+  g.rank = assignment->rank();
+  g.size = assignment->replicas();
+  g.store_host = assignment->store_host();
+  g.store_port = assignment->store_port();
+  g.address = OwnAddress(config.replica, endpoints);
+  g.timeout = std::chrono::milliseconds(static_cast<int64_t>(config.replica.timeout * 1000));
+  std::fprintf(stderr, "learner: %s is replica %d of %d (group %lld, store %s:%d)\n",
+               config.replica_id.c_str(), g.rank, g.size,
+               static_cast<long long>(assignment->group()), g.store_host.c_str(), g.store_port);
+  return std::make_unique<ReplicaGroup>(g);
 }
 
-std::string FindCheckpoint(const std::string& run_or_checkpoint) {
-  fs::path p(run_or_checkpoint);
-  if (fs::is_regular_file(p)) return p.string();
-  auto all = Checkpoints(p / "checkpoints");
-  return all.empty() ? "" : all.back().string();
-}
-
-std::string FindGoodCheckpoint(const std::string& run_or_checkpoint,
-                               std::vector<std::string>* skipped) {
-  fs::path p(run_or_checkpoint);
-  if (fs::is_regular_file(p)) {
-    std::string damage = CheckCheckpointFile(p.string());
-    if (!damage.empty()) throw ConfigError(damage);
-    return p.string();
-  }
-  auto all = Checkpoints(p / "checkpoints");
-  for (auto it = all.rbegin(); it != all.rend(); ++it) {
-    std::string damage = CheckCheckpointFile(it->string());
-    if (damage.empty()) return it->string();
-    if (skipped) skipped->push_back(damage);
-  }
-  return "";
-}
-
-int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
-               const Endpoints& endpoints, const std::atomic<bool>& stop) {
-  at::set_num_threads(trainer.threads);
-  // Past a file size limit (RLIMIT_FSIZE) a write fails with EFBIG instead of killing us: a
-  // checkpoint that does not fit is a logged failure, not a crash.
-  std::signal(SIGXFSZ, SIG_IGN);
-  const fs::path checkpoints = fs::path(config.run_dir) / "checkpoints";
-  fs::create_directories(checkpoints);
-  zmq::context_t context(1);
-
-  std::unique_ptr<ReplicaGroup> group;
-  if (config.replica.replicas > 1) {
-    const int64_t newest =
-        config.resume ? CheckpointSamples(FindGoodCheckpoint(config.run_dir)) : -1;
-    auto assignment = JoinGroup(context, config, endpoints, newest, stop);
-    if (!assignment) return 0;  // stopped before the group formed: nothing trained, nothing to save
-    ReplicaGroupConfig g;
-    g.rank = assignment->rank();
-    g.size = assignment->replicas();
-    g.store_host = assignment->store_host();
-    g.store_port = assignment->store_port();
-    g.address = OwnAddress(config.replica, endpoints);
-    g.timeout = std::chrono::milliseconds(static_cast<int64_t>(config.replica.timeout * 1000));
-    std::fprintf(stderr, "learner: %s is replica %d of %d (group %lld, store %s:%d)\n",
-                 config.replica_id.c_str(), g.rank, g.size,
-                 static_cast<long long>(assignment->group()), g.store_host.c_str(), g.store_port);
-    group = std::make_unique<ReplicaGroup>(g);
-  }
-  const int rank = group ? group->rank() : 0;
-  const bool leader = rank == 0;  // publishes snapshots, writes checkpoints and the CSV
-  torch::manual_seed(trainer.seed + static_cast<uint64_t>(rank));
-  Learner learner(trainer, config.observation_size, config.action_size, group.get());
-  learner.SetFigureNames(config.figure_names);
-
-  if (!leader) {
-    // Rank 0's state arrives below.
-  } else if (config.resume) {
+// The leader's starting state: the newest good checkpoint (--resume), or another run's weights
+// (--init-from), or the fresh initialisation.
+void Restore(Learner& learner, CheckpointStore& store, zmq::context_t& context,
+             const LearnerProcessConfig& config, const Endpoints& endpoints) {
+  if (config.resume) {
     std::vector<std::string> damaged;
-    std::string path = FindGoodCheckpoint(config.run_dir, &damaged);
-    // A damaged checkpoint is set aside (renamed *.damaged), so that the ones written from here
-    // on, whose sample counts are lower, are not deleted before it by keep_checkpoints.
+    std::string path = store.NewestGood(&damaged);
     for (const auto& reason : damaged) {
       const std::string file = reason.substr(0, reason.find(": "));
-      std::error_code error;
-      fs::rename(file, file + ".damaged", error);
       std::fprintf(stderr, "learner: --resume: %s; set aside as %s.damaged%s\n", reason.c_str(),
                    fs::path(file).filename().c_str(),
                    path.empty() ? "" : ("; using " + path + " instead").c_str());
     }
     if (path.empty()) {
       std::fprintf(stderr, "learner: --resume: no %scheckpoint in %s; starting fresh\n",
-                   damaged.empty() ? "" : "good ", checkpoints.c_str());
+                   damaged.empty() ? "" : "good ", store.folder().c_str());
     } else {
       learner.Load(path);
       std::fprintf(stderr, "learner: resumed from %s at policy v%lld, %lld samples%s\n",
@@ -414,141 +191,192 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
     learner.LoadWeights(path);
     std::fprintf(stderr, "learner: initialised weights from %s\n", path.c_str());
   }
-  learner.SyncFromRankZero();
+}
 
-  MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
-  LearnerMetrics metrics(endpoint, config.figure_names, config.reward_terms);
-  metrics.version.Set(static_cast<double>(learner.version()));
-  metrics.run_samples.Set(static_cast<double>(learner.samples()));
-  const int64_t start_stale = learner.stale_dropped();
+// The run's effective configuration beside its checkpoints, as `ragdoll train` writes it, so
+// that eval, render and verify work on a run whose roles were started one by one.
+void WriteRunConfig(const LearnerProcessConfig& config) {
+  const fs::path path = fs::path(config.run_dir) / "config.yaml";
+  if (config.config_text.empty() || fs::exists(path)) return;
+  std::ofstream(path.string() + ".tmp") << config.config_text;
+  std::error_code error;
+  fs::rename(path.string() + ".tmp", path, error);
+}
 
-  // A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
-  // the earlier ones stay, none is deleted for it, and training goes on.
-  auto save = [&](const char* why) {
-    char name[64];
-    std::snprintf(name, sizeof(name), "checkpoint-%012lld.pt",
-                  static_cast<long long>(learner.samples()));
-    fs::path path = checkpoints / name;
-    try {
-      learner.Save(path.string(), config.config_text);
-    } catch (const std::exception& error) {
-      metrics.checkpoint_failures.Increment();
-      std::fprintf(stderr, "learner: %s checkpoint FAILED: %s [%lld failures so far]\n", why,
-                   error.what(), static_cast<long long>(metrics.checkpoint_failures.Value()));
-      return false;
-    }
-    metrics.checkpoints.Increment();
-    auto all = Checkpoints(checkpoints);
-    for (size_t i = 0; i + trainer.keep_checkpoints < all.size(); ++i) fs::remove(all[i]);
-    std::fprintf(stderr, "learner: %s checkpoint %s\n", why, path.c_str());
-    return true;
-  };
-
-  // Every replica pulls its share of the segments (the broker's PUSH deals them round-robin);
-  // only rank 0 pushes snapshots.
-  zmq::socket_t pull = MakeSocket(context, zmq::socket_type::pull, endpoints);
-  zmq::socket_t push = MakeSocket(context, zmq::socket_type::push, endpoints);
-  ConnectionMonitor monitor(pull, config.replica_id.empty() ? "learner" : config.replica_id,
-                            "learner");
-  pull.connect(endpoints.Connect(endpoints.learner_port));
-  if (leader) push.connect(endpoints.Connect(endpoints.learner_snapshot_port));
-
-  std::string snapshot;
-  auto publish = [&]() {
-    if (leader) Send(push, zmq::buffer(snapshot), zmq::send_flags::dontwait);
-  };
-  auto make_snapshot = [&]() {
-    if (!leader) return;
-    snapshot = wire::Pack(v1::KIND_SNAPSHOT, config.run_id, "learner", learner.Snapshot(),
-                          learner.version());
-    publish();
-  };
-  make_snapshot();
-
-  // The run's effective configuration beside its checkpoints, as `ragdoll train` writes it, so
-  // that eval, render and verify work on a run whose roles were started one by one.
-  if (leader && !config.config_text.empty() &&
-      !fs::exists(fs::path(config.run_dir) / "config.yaml")) {
-    const fs::path path = fs::path(config.run_dir) / "config.yaml";
-    std::ofstream(path.string() + ".tmp") << config.config_text;
-    std::error_code error;
-    fs::rename(path.string() + ".tmp", path, error);
+// The segments the broker deals this replica (its PUSH deals them round-robin): each checked,
+// then buffered in the learner, or counted and dropped.
+class SegmentIntake {
+ public:
+  SegmentIntake(zmq::context_t& context, const LearnerProcessConfig& config,
+                const Endpoints& endpoints, Learner& learner, TrainingLog& log)
+      : config_(config),
+        endpoints_(endpoints),
+        learner_(learner),
+        log_(log),
+        pull_(MakeSocket(context, zmq::socket_type::pull, endpoints)),
+        monitor_(pull_, config.replica_id.empty() ? "learner" : config.replica_id, "learner") {
+    pull_.connect(endpoints.Connect(endpoints.learner_port));
   }
-  const fs::path csv_path = fs::path(config.run_dir) / "metrics.csv";
-  bool new_csv = leader && !fs::exists(csv_path);
-  // A resumed run keeps its file's columns (an older learner's order or figures); a new one
-  // has the fixed columns, then a column per episode figure.
-  std::vector<std::string> csv_columns;
-  if (leader && !new_csv) csv_columns = CsvHeader(csv_path);
-  if (csv_columns.empty()) {
-    csv_columns = MetricsColumns(config.figure_names);
-    new_csv = leader;
+
+  // Waits for a segment up to the socket's receive timeout, counting the wait as idle time.
+  void Receive() {
+    zmq::message_t message;
+    const auto wait_start = Clock::now();
+    const bool received = ragdoll::Receive(pull_, message);
+    monitor_.Poll();  // a refused handshake is said in the log
+    log_.Idle(std::chrono::duration<double>(Clock::now() - wait_start).count());
+    if (received) Take(message);
   }
-  std::ofstream csv;
-  if (leader) csv.open(csv_path, std::ios::app);
-  if (new_csv) csv << JoinCells(csv_columns) << "\n";
 
-  const auto start = Clock::now();
-  auto last_publish = start, last_iteration = start;
-  const int64_t start_samples = learner.samples();
-  int64_t next_checkpoint =
-      (learner.samples() / trainer.checkpoint_interval + 1) * trainer.checkpoint_interval;
-  int64_t rejected_total = 0;
-  auto reject = [&](const wire::Verdict& v) {
-    metrics.rejected[static_cast<int>(v.rejection) - 1]->Increment();
-    if (rejected_total++ % 100 == 0) {
-      std::fprintf(stderr, "learner: dropped a segment (%s): %s [%lld dropped so far]\n",
-                   wire::RejectionName(v.rejection), v.detail.c_str(),
-                   static_cast<long long>(rejected_total));
-    }
-  };
-
-  // A received message: checked, then buffered, or counted and dropped.
-  auto take = [&](const zmq::message_t& message) {
-    v1::Header header;
-    v1::TrajectorySegment segment;
-    wire::Verdict v = wire::ReadMessage(message.data(), message.size(), endpoints.max_message_bytes,
-                                        &header, &segment);
-    if (v.ok() && header.kind() != v1::KIND_TRAJECTORY) {
-      v = {wire::Rejection::kKind, "expected a trajectory segment"};
-    }
-    if (v.ok() && header.run_id() != config.run_id) {
-      v = {wire::Rejection::kRunId, "segment of run '" + header.run_id() + "'"};
-    }
-    if (v.ok()) v = wire::CheckSegment(segment, config.observation_size, config.action_size);
-    if (!v.ok()) return reject(v);
-    const int64_t lag = learner.version() - segment.policy_version();
-    Learner::Accept a = learner.Add(std::move(segment));
-    if (a == Learner::Accept::kWrongLength) {
-      reject({wire::Rejection::kShape, "segment length differs from time_horizon"});
-    } else if (a == Learner::Accept::kAccepted) {
-      metrics.lag.Observe(static_cast<double>(lag));
-    }
-    AdvanceTo(metrics.stale, static_cast<double>(learner.stale_dropped() - start_stale));
-  };
   // A replica whose buffer is full takes fresh segments while the others fill theirs, up to
-  // twice its share (Learner::AgreeToUpdate says why), but only once they are late. Replicas
-  // that all hold a backlog reach the agreement 1-20 ms apart, and without the wait the first
-  // one took its backlog in that time, up to twice its share (8 192 -> 16 384 in 11 ms,
-  // ragdoll-bench-cluster --pin). Every gradient step then waited for it: updates took 3-5 s
-  // instead of 2.2, the backlog grew, and the group trained less the more it was offered.
-  // Each call waits at most 1 ms.
-  constexpr auto kLateAfter = std::chrono::milliseconds(50);
-  auto take_while_waiting = [&](Clock::time_point waiting_since) {
-    if (learner.Full() || Clock::now() - waiting_since < kLateAfter) {
+  // twice its share (Learner::AgreeToUpdate says why), but only once they are late: replicas
+  // that all hold a backlog agree within milliseconds, and one that took its backlog in that
+  // time made every gradient step wait for it (docs/learner-scaling.md). Each call waits at
+  // most 1 ms.
+  void TakeWhileWaiting(Clock::time_point waiting_since) {
+    constexpr auto kLateAfter = std::chrono::milliseconds(50);
+    if (learner_.Full() || Clock::now() - waiting_since < kLateAfter) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
       return;
     }
-    zmq::pollitem_t item = {pull.handle(), 0, ZMQ_POLLIN, 0};
+    zmq::pollitem_t item = {pull_.handle(), 0, ZMQ_POLLIN, 0};
     zmq::message_t message;
     if (zmq::poll(&item, 1, std::chrono::milliseconds(1)) > 0 &&
-        Receive(pull, message, zmq::recv_flags::dontwait)) {
-      take(message);
+        ragdoll::Receive(pull_, message, zmq::recv_flags::dontwait)) {
+      Take(message);
     }
+  }
+
+ private:
+  void Take(const zmq::message_t& message) {
+    v1::Header header;
+    v1::TrajectorySegment segment;
+    wire::Verdict v = wire::ReadMessage(message.data(), message.size(),
+                                        endpoints_.max_message_bytes, &header, &segment);
+    if (v.ok() && header.kind() != v1::KIND_TRAJECTORY) {
+      v = {wire::Rejection::kKind, "expected a trajectory segment"};
+    }
+    if (v.ok() && header.run_id() != config_.run_id) {
+      v = {wire::Rejection::kRunId, "segment of run '" + header.run_id() + "'"};
+    }
+    if (v.ok()) v = wire::CheckSegment(segment, config_.observation_size, config_.action_size);
+    if (!v.ok()) return log_.Rejected(v);
+    const int64_t lag = learner_.version() - segment.policy_version();
+    Learner::Accept a = learner_.Add(std::move(segment));
+    if (a == Learner::Accept::kWrongLength) {
+      log_.Rejected({wire::Rejection::kShape, "segment length differs from time_horizon"});
+    } else if (a == Learner::Accept::kAccepted) {
+      log_.Accepted(lag);
+    }
+    log_.CountStale(learner_.stale_dropped());
+  }
+
+  const LearnerProcessConfig& config_;
+  const Endpoints& endpoints_;
+  Learner& learner_;
+  TrainingLog& log_;
+  zmq::socket_t pull_;
+  ConnectionMonitor monitor_;
+};
+
+// Rank 0's policy snapshots to the broker: one after each update, and the same one again every
+// republish_seconds, so that a restarted broker has it. The other replicas publish nothing.
+class SnapshotPublisher {
+ public:
+  SnapshotPublisher(zmq::context_t& context, const LearnerProcessConfig& config,
+                    const Endpoints& endpoints, bool leader)
+      : config_(config),
+        leader_(leader),
+        push_(MakeSocket(context, zmq::socket_type::push, endpoints)) {
+    if (leader) push_.connect(endpoints.Connect(endpoints.learner_snapshot_port));
+  }
+
+  void Publish(Learner& learner) {
+    if (leader_) {
+      snapshot_ = wire::Pack(v1::KIND_SNAPSHOT, config_.run_id, "learner", learner.Snapshot(),
+                             learner.version());
+    }
+    Send();
+  }
+
+  void RepublishWhenDue() {
+    if (std::chrono::duration<double>(Clock::now() - last_).count() > config_.republish_seconds) {
+      Send();
+    }
+  }
+
+ private:
+  void Send() {
+    if (leader_) ragdoll::Send(push_, zmq::buffer(snapshot_), zmq::send_flags::dontwait);
+    last_ = Clock::now();
+  }
+
+  const LearnerProcessConfig& config_;
+  bool leader_;
+  zmq::socket_t push_;
+  std::string snapshot_;
+  Clock::time_point last_ = Clock::now();
+};
+
+}  // namespace
+
+ReplicaSettings ReadReplicaSettings(const ConfigSection& section) {
+  ReplicaSettings s;
+  s.replicas = section.Get<int>("replicas", s.replicas);
+  if (s.replicas < 1 || s.replicas > 4096) section.Fail("replicas", "must be 1 to 4096");
+  s.store_port = section.GetPort("store_port", s.store_port);
+  s.address = section.Get<std::string>("address", s.address);
+  s.timeout = section.Get<double>("timeout", s.timeout);
+  if (!(s.timeout >= 1)) section.Fail("timeout", "must be at least 1 (seconds)");
+  section.Finish();
+  return s;
+}
+
+int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
+               const Endpoints& endpoints, const std::atomic<bool>& stop) {
+  at::set_num_threads(trainer.threads);
+  // Past a file size limit (RLIMIT_FSIZE) a write fails with EFBIG instead of killing us: a
+  // checkpoint that does not fit is a logged failure, not a crash.
+  std::signal(SIGXFSZ, SIG_IGN);
+  CheckpointStore store(config.run_dir, trainer.keep_checkpoints);
+  zmq::context_t context(1);
+  std::unique_ptr<ReplicaGroup> group;
+  if (config.replica.replicas > 1) {
+    group = JoinReplicas(context, config, endpoints, stop);
+    if (!group) return 0;  // stopped before the group formed: nothing trained, nothing to save
+  }
+  const int rank = group ? group->rank() : 0;
+  const bool leader = rank == 0;  // publishes snapshots, writes checkpoints and the CSV
+  torch::manual_seed(trainer.seed + static_cast<uint64_t>(rank));
+  Learner learner(trainer, config.observation_size, config.action_size, group.get());
+  learner.SetFigureNames(config.figure_names);
+  if (leader) Restore(learner, store, context, config, endpoints);
+  learner.SyncFromRankZero();  // the others take rank 0's state
+
+  MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
+  TrainingLog log(endpoint, config.run_dir, config.label, leader, learner, config.reward_terms);
+  // A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
+  // the earlier ones stay, none is deleted for it, and training goes on.
+  auto save = [&](const char* why) {
+    std::string path;
+    try {
+      path = store.Save(learner, config.config_text);
+    } catch (const std::exception& error) {
+      log.CheckpointFailed(why, error.what());
+      return false;
+    }
+    store.DeleteBeyondKeep();
+    log.CheckpointWritten(why, path);
+    return true;
   };
 
-  // Time spent blocked waiting for a segment: the learner's idle time, per iteration.
-  double idle_seconds = 0;
+  SegmentIntake intake(context, config, endpoints, learner, log);
+  SnapshotPublisher publisher(context, config, endpoints, leader);
+  publisher.Publish(learner);
+  if (leader) WriteRunConfig(config);
+
+  int64_t next_checkpoint =
+      (learner.samples() / trainer.checkpoint_interval + 1) * trainer.checkpoint_interval;
   bool stopped = false;
   while (learner.samples() < trainer.max_steps) {
     if (stop.load()) {
@@ -556,106 +384,24 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
       stopped = true;
       break;
     }
-    zmq::message_t message;
-    const auto wait_start = Clock::now();
-    const bool received = Receive(pull, message);
-    monitor.Poll();  // a refused handshake is said in the log
-    const double waited = std::chrono::duration<double>(Clock::now() - wait_start).count();
-    idle_seconds += waited;
-    metrics.idle_seconds.Increment(waited);
-    if (received) take(message);
+    intake.Receive();
     if (learner.Ready()) {
       const auto ready_at = Clock::now();
       // False: another replica is stopping.
-      if (!learner.AgreeToUpdate(false, [&] { take_while_waiting(ready_at); })) {
+      if (!learner.AgreeToUpdate(false, [&] { intake.TakeWhileWaiting(ready_at); })) {
         stopped = true;
         break;
       }
       UpdateStats u = learner.Update();
-      make_snapshot();
-      last_publish = Clock::now();
-      const EpisodeStatsSum& e = learner.episodes();
-      double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-      double iteration_s = std::chrono::duration<double>(Clock::now() - last_iteration).count();
-      last_iteration = Clock::now();
-      double rate = (learner.samples() - start_samples) / std::max(elapsed, 1e-9);
-      const double idle_fraction = idle_seconds / std::max(iteration_s, 1e-9);
-      idle_seconds = 0;
-      double eta = (trainer.max_steps - learner.samples()) / std::max(rate, 1e-9);
-      if (leader)
-        std::printf(
-            "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  "
-            "v%lld  kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
-            config.label.c_str(), static_cast<long long>(learner.iterations()),
-            static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
-            e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
-            static_cast<long long>(learner.version()), u.approx_kl, 100 * idle_fraction,
-            Duration(elapsed).c_str(), Duration(eta).c_str());
-      std::fflush(stdout);
-      metrics.episode_return.Set(e.Mean(e.episode_return));
-      metrics.normalized_return.Set(e.Mean(e.normalized_return));
-      metrics.episode_length.Set(e.Mean(e.length));
-      metrics.fall_ratio.Set(e.Mean(e.falls));
-      // Totals are the group's: replica 0 counts them, so sums over replicas stay right.
-      if (leader) metrics.episodes.Increment(static_cast<double>(e.episodes));
-      for (size_t i = 0; i < metrics.figures.size(); ++i) {
-        metrics.figures[i]->Set(e.Mean(e.figures[i]));
-      }
-      metrics.policy_loss.Set(u.policy_loss);
-      metrics.value_loss.Set(u.value_loss);
-      metrics.entropy.Set(u.entropy);
-      metrics.approx_kl.Set(u.approx_kl);
-      metrics.clip_fraction.Set(u.clip_fraction);
-      metrics.explained_variance.Set(u.explained_variance);
-      metrics.learning_rate.Set(u.learning_rate);
-      metrics.updates.Increment();
-      metrics.update_seconds.Observe(u.seconds);
-      metrics.skipped_steps.Increment(static_cast<double>(u.skipped_steps));
-      if (leader) metrics.samples.Increment(static_cast<double>(u.samples));
-      metrics.run_samples.Set(static_cast<double>(learner.samples()));
-      metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
-      metrics.version.Set(static_cast<double>(learner.version()));
-      if (leader) {
-        std::map<std::string, std::string> row = {
-            {"iteration", Cell(learner.iterations())},
-            {"version", Cell(learner.version())},
-            {"samples", Cell(learner.samples())},
-            {"elapsed_s", Cell(elapsed)},
-            {"samples_per_s", Cell(u.samples / std::max(iteration_s, 1e-9))},
-            {"episodes", Cell(e.episodes)},
-            {"mean_return", Cell(e.Mean(e.episode_return))},
-            {"normalized_return", Cell(e.Mean(e.normalized_return))},
-            {"episode_length", Cell(e.Mean(e.length))},
-            {"fall_rate", Cell(e.Mean(e.falls))},
-            {"policy_loss", Cell(u.policy_loss)},
-            {"value_loss", Cell(u.value_loss)},
-            {"entropy", Cell(u.entropy)},
-            {"approx_kl", Cell(u.approx_kl)},
-            {"clip_fraction", Cell(u.clip_fraction)},
-            {"explained_variance", Cell(u.explained_variance)},
-            {"learning_rate", Cell(u.learning_rate)},
-            {"update_s", Cell(u.seconds)},
-            {"stale_dropped", Cell(learner.stale_dropped())},
-            {"rejected", Cell(rejected_total)},
-            {"idle_fraction", Cell(idle_fraction)},
-            {"update_kl", Cell(u.update_kl)}};
-        for (size_t i = 0; i < e.figures.size(); ++i) {
-          row[e.figure_names[i]] = Cell(e.Mean(e.figures[i]));
-        }
-        csv << MetricsRow(csv_columns, row) << "\n";
-        csv.flush();
-      }
+      publisher.Publish(learner);
+      log.Updated(learner, u, trainer.max_steps);
       learner.ResetEpisodeStats();
       if (learner.samples() >= next_checkpoint) {
         if (leader) save("saved");
         next_checkpoint += trainer.checkpoint_interval;
       }
     }
-    if (std::chrono::duration<double>(Clock::now() - last_publish).count() >
-        config.republish_seconds) {
-      publish();
-      last_publish = Clock::now();
-    }
+    publisher.RepublishWhenDue();
   }
   if (leader && !save(stopped ? "final (stopped)" : "final (max_steps reached)")) return 1;
   return 0;

@@ -1,11 +1,9 @@
-// The learner process: a Learner wired to the broker, with progress lines, a metrics CSV and
-// checkpoints in the run folder. Returns when max_steps is reached or `stop` is set, after a
-// final checkpoint.
+// The learner process: a Learner wired to the broker, with progress lines and a metrics CSV
+// (learner/training_log.h) and checkpoints (learner/checkpoint_store.h) in the run folder.
+// Returns when max_steps is reached or `stop` is set, after a final checkpoint.
 #pragma once
 
 #include <atomic>
-#include <filesystem>
-#include <map>
 #include <string>
 #include <vector>
 
@@ -57,25 +55,5 @@ struct LearnerProcessConfig {
 // last one when restarted (`ragdoll train` restarts it; compose restarts the containers).
 int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop);
-
-// The columns of a new metrics.csv: the learner's own, then one per episode figure.
-std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names);
-// A metrics.csv row: `cells` (by column name) in `columns`' order, comma-separated. A column
-// without a cell (a figure this run's environment does not report, in the file of a resumed
-// older run) holds 0, as the learner wrote such figures before they had names.
-std::string MetricsRow(const std::vector<std::string>& columns,
-                       const std::map<std::string, std::string>& cells);
-
-// The checkpoint files (checkpoint-*.pt) of a run's checkpoints/ folder, oldest first.
-std::vector<std::filesystem::path> Checkpoints(const std::filesystem::path& folder);
-
-// The newest checkpoint file of a run folder or a checkpoint path itself; "" when none.
-std::string FindCheckpoint(const std::string& run_or_checkpoint);
-
-// The newest checkpoint of a run folder that is whole (its checksum matches), or a checkpoint
-// path itself when whole; "" when none. Each damaged one passed over is described in `skipped`
-// (file and reason). A damaged file given by path throws ConfigError naming the damage.
-std::string FindGoodCheckpoint(const std::string& run_or_checkpoint,
-                               std::vector<std::string>* skipped = nullptr);
 
 }  // namespace ragdoll::learner

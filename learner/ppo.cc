@@ -41,6 +41,13 @@ GaeResult ComputeGae(const torch::Tensor& rewards, const torch::Tensor& values,
   return {advantages, advantages + v};
 }
 
+torch::Tensor NormalizeAdvantages(const torch::Tensor& advantages) {
+  // The unbiased std (as CleanRL) is undefined for a single sample, so a minibatch of one keeps
+  // its raw advantage rather than turning the loss into NaN.
+  if (advantages.numel() <= 1) return advantages;
+  return (advantages - advantages.mean()) / (advantages.std() + 1e-8);
+}
+
 PpoLoss ComputePpoLoss(const PpoLossConfig& config, const torch::Tensor& newlogprob,
                        const torch::Tensor& entropy, const torch::Tensor& newvalue,
                        const torch::Tensor& b_logprobs, torch::Tensor b_advantages,
@@ -64,11 +71,7 @@ PpoLoss ComputePpoLoss(const PpoLossConfig& config, const torch::Tensor& newlogp
         ((ratio - 1.0).abs() > config.clip_coef).to(torch::kFloat64).mean().item<double>();
   }
 
-  // The unbiased std (as CleanRL) is undefined for a single sample, so a minibatch of one keeps
-  // its raw advantage rather than turning the loss into NaN.
-  if (config.norm_adv && b_advantages.numel() > 1) {
-    b_advantages = (b_advantages - b_advantages.mean()) / (b_advantages.std() + 1e-8);
-  }
+  if (config.norm_adv) b_advantages = NormalizeAdvantages(b_advantages);
 
   // Clipped surrogate (Schulman et al. 2017, eq. 7), as a loss to minimise.
   const torch::Tensor pg_loss1 = -b_advantages * ratio;

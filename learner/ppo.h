@@ -49,6 +49,10 @@ struct PpoLoss {
   double clipfrac = 0;   // fraction of samples whose ratio left [1 - eps, 1 + eps]
 };
 
+// A minibatch's advantages less their mean, over their unbiased standard deviation (CleanRL's
+// norm_adv). A minibatch of one keeps its raw advantage: its standard deviation is undefined.
+torch::Tensor NormalizeAdvantages(const torch::Tensor& advantages);
+
 // One minibatch's loss. newlogprob, entropy, newvalue: [B] from the current networks (with
 // gradients); b_logprobs, b_advantages, b_returns, b_values: [B] from the rollout, where
 // b_logprobs are the behaviour policy's log-probabilities (the actors' snapshot), so a version

@@ -57,11 +57,10 @@ namespace {
   return std::string(e.what()).substr(0, 300);
 }
 
-// A replica polls a collective for up to this long before it blocks on it. A gradient step's
-// all-reduce is shorter: blocked, it took 2.3-3.8 ms over loopback, polled 1.1-1.4 ms
-// (ragdoll-bench-learner --replicas 2), probably because a blocked thread lets its core go idle
-// and an idle core answers each of Gloo's messages late. Longer waits (a replica still filling
-// its buffer) block after this, leaving the core to the actors.
+// A replica polls a collective for up to this long before it blocks on it: a gradient step's
+// all-reduce is shorter, and polled it took half the time it took blocked, probably because an
+// idle core answers each of Gloo's messages late (docs/learner-scaling.md). Longer waits (a
+// replica still filling its buffer) block after this, leaving the core to the actors.
 constexpr auto kPollBeforeBlocking = std::chrono::milliseconds(10);
 
 // `meanwhile`, when given, runs until the work completes instead of the polling.

@@ -16,7 +16,7 @@
 #include "common/policy.h"
 #include "common/wire.h"
 #include "learner/learner.h"
-#include "learner/learner_process.h"
+#include "learner/training_log.h"
 
 namespace ragdoll {
 namespace {

@@ -22,6 +22,7 @@
 
 #include "common/config_section.h"
 #include "learner/checkpoint_file.h"
+#include "learner/checkpoint_store.h"
 #include "learner/learner_process.h"
 #include "learner/ppo.h"
 #include "learner/replica_group.h"
@@ -740,6 +741,145 @@ TEST(LearnerReplicas, AReplicaThatLeavesBreaksTheGroupAtOnce) {
   EXPECT_THAT(error, ::testing::HasSubstr("a replica stopped or cannot be reached"));
   // Broken by the closed connection ("... by peer"), not by waiting out the timeout.
   EXPECT_THAT(error, ::testing::HasSubstr("by peer"));
+}
+
+// FNV-1a, 64 bits: a digest of exact bytes.
+class Fnv1a {
+ public:
+  void Add(const void* data, size_t size) {
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < size; ++i) hash_ = (hash_ ^ bytes[i]) * 1099511628211ULL;
+  }
+  template <typename T>
+  void Add(const T& value) {
+    Add(&value, sizeof(value));
+  }
+  void Add(const torch::Tensor& t) {
+    const torch::Tensor c = t.detach().contiguous();
+    Add(c.data_ptr(), static_cast<size_t>(c.numel() * c.element_size()));
+  }
+  void Add(const std::vector<double>& v) { Add(v.data(), v.size() * sizeof(double)); }
+  uint64_t value() const { return hash_; }
+
+ private:
+  uint64_t hash_ = 14695981039346656037ULL;
+};
+
+// Every number an update leaves behind: the networks, Adam's moments, the statistics and the
+// counters, and each update's reported figures (all but its wall time).
+void AddState(Fnv1a& digest, Learner& learner) {
+  for (const auto& p : learner.policy()->named_parameters()) digest.Add(p.value());
+  for (const auto& p : learner.critic()->named_parameters()) digest.Add(p.value());
+  auto& optimizer = learner.optimizer();
+  for (const auto& p : optimizer.param_groups()[0].params()) {
+    const auto& state = static_cast<const torch::optim::AdamParamState&>(
+        *optimizer.state().at(c10::guts::to_string(p.unsafeGetTensorImpl())));
+    digest.Add(state.step());
+    digest.Add(state.exp_avg());
+    digest.Add(state.exp_avg_sq());
+  }
+  digest.Add(learner.stats().mean());
+  digest.Add(learner.stats().var());
+  digest.Add(learner.stats().count());
+  digest.Add(learner.return_stats().mean());
+  digest.Add(learner.return_stats().var());
+  digest.Add(learner.return_stats().count());
+  digest.Add(learner.version());
+  digest.Add(learner.samples());
+  digest.Add(learner.iterations());
+}
+
+void AddStats(Fnv1a& digest, const UpdateStats& u) {
+  for (double x : {u.policy_loss, u.value_loss, u.entropy, u.approx_kl, u.update_kl,
+                   u.clip_fraction, u.explained_variance, u.learning_rate}) {
+    digest.Add(x);
+  }
+  digest.Add(u.samples);
+  digest.Add(u.skipped_steps);
+}
+
+// configs/walk.yaml's trainer section with small sizes: 6 segments a buffer, minibatches of 20
+// (two a epoch, 8 samples left over), linear schedule, value normalisation, no value clipping.
+constexpr const char* kWalkTrainer = R"(
+hyperparameters:
+  batch_size: 20
+  buffer_size: 48
+  learning_rate: 3.0e-4
+  learning_rate_schedule: linear
+  beta: 5.0e-4
+  epsilon: 0.2
+  lambd: 0.95
+  num_epoch: 4
+  clip_value_loss: false
+network_settings:
+  normalize: true
+  normalize_value: true
+  hidden_units: 16
+  num_layers: 2
+reward_signals:
+  extrinsic:
+    gamma: 0.95
+max_steps: 1000
+time_horizon: 8
+max_policy_lag: 2
+)";
+
+// The same with the adaptive schedule, value clipping and fixed action noise.
+constexpr const char* kAdaptiveTrainer = R"(
+hyperparameters:
+  batch_size: 16
+  buffer_size: 32
+  learning_rate_schedule: adaptive
+  target_kl: 0.002
+  num_epoch: 3
+network_settings:
+  normalize_value: true
+  learn_log_std: false
+  hidden_units: 16
+  num_layers: 2
+max_steps: 1000
+time_horizon: 8
+)";
+
+// The digest of a learner (in `group`, when given) after three updates from seed 1 on segments
+// drawn from seed 5, single-threaded so the sums are always taken in the same order.
+uint64_t GoldenDigest(const char* trainer_yaml, ReplicaGroup* group = nullptr) {
+  const int threads = at::get_num_threads();
+  at::set_num_threads(1);
+  TrainerConfig config = ReadTrainerConfig(ConfigSection::FromString(trainer_yaml, "golden"));
+  torch::manual_seed(1);
+  Learner learner(config, kObs, kAct, group);
+  Fnv1a digest;
+  std::mt19937 rng(5);
+  for (int update = 0; update < 3; ++update) {
+    while (!learner.Ready()) learner.Add(RandomSegment(rng, learner.version()));
+    EXPECT_TRUE(learner.AgreeToUpdate(false));
+    AddStats(digest, learner.Update());
+  }
+  AddState(digest, learner);
+  at::set_num_threads(threads);
+  return digest.value();
+}
+
+// The learner's numbers, pinned: any change of the update's arithmetic (order of operations,
+// random draws, schedules) changes these digests. Recorded on the update before it was split
+// into named steps; a deliberate change of the numerics records them anew.
+TEST(LearnerGolden, AWalkTrainerTakesTheRecordedSteps) {
+  EXPECT_EQ(GoldenDigest(kWalkTrainer), 0x8a78be9127f06ccbULL);
+}
+
+TEST(LearnerGolden, AnAdaptiveTrainerTakesTheRecordedSteps) {
+  EXPECT_EQ(GoldenDigest(kAdaptiveTrainer), 0x34390088720264a3ULL);
+}
+
+// A group of one replica takes the group's arithmetic (moments over the group, the gradient
+// buffer and its KL slot), which differs from a lone learner's in rounding.
+TEST(LearnerGolden, AGroupOfOneReplicaTakesTheRecordedSteps) {
+  ReplicaGroupConfig g;
+  g.store_port = FreePort();
+  g.timeout = std::chrono::seconds(20);
+  ReplicaGroup group(g);
+  EXPECT_EQ(GoldenDigest(kWalkTrainer, &group), 0x4d559140b3d57041ULL);
 }
 
 TEST(TrainerConfig, ReadsValueNormalisationAndFixedNoise) {

@@ -249,6 +249,15 @@ TEST(PpoLoss, GradientsFollowTheClippedTerms) {
   EXPECT_TRUE(torch::allclose(m.entropy.grad(), torch::full({4}, -0.0025, torch::kFloat64)));
 }
 
+// {1, -2, 3, -0.5}: mean 0.375, unbiased variance 18.25 / 4 = 4.5625.
+TEST(PpoLoss, NormalizeAdvantagesByTheMinibatchMeanAndUnbiasedStd) {
+  const torch::Tensor a = NormalizeAdvantages(Row({1, -2, 3, -0.5}));
+  const double sd = std::sqrt(4.5625) + 1e-8;
+  const double expected[] = {0.625 / sd, -2.375 / sd, 2.625 / sd, -0.875 / sd};
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(a[i].item<double>(), expected[i], 1e-12);
+  EXPECT_EQ(NormalizeAdvantages(Row({3.0})).item<double>(), 3.0);
+}
+
 TEST(PpoLoss, SingleSampleMinibatchKeepsRawAdvantage) {
   const PpoLoss l =
       ComputePpoLoss(HandConfig(/*norm_adv=*/true, /*clip_vloss=*/false), Row({-1 + std::log(1.1)}),

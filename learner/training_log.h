@@ -1,0 +1,69 @@
+// What the learner process reports of its training: a progress line per update
+// on stdout, a row of the run's metrics.csv, and the Prometheus series. Replica
+// 0 (the leader) writes the line and the CSV and counts the group's totals;
+// every replica sets its own gauges.
+#pragma once
+
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/metrics.h"
+#include "common/wire.h"
+#include "learner/learner.h"
+
+namespace ragdoll::learner {
+
+struct LearnerMetrics;
+
+// The columns of a new metrics.csv: the learner's own, then one per episode figure.
+std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names);
+// A metrics.csv row: `cells` (by column name) in `columns`' order, comma-separated. A column
+// without a cell (a figure this run's environment does not report, in the file of a resumed
+// older run) holds 0, as the learner wrote such figures before they had names.
+std::string MetricsRow(const std::vector<std::string>& columns,
+                       const std::map<std::string, std::string>& cells);
+
+class TrainingLog {
+ public:
+  // Opens (appends to) `run_dir`/metrics.csv on the leader, writing its header when new (a
+  // resumed run keeps its file's columns); the elapsed time, rates and totals count from here and
+  // from `learner`'s state now. The learner's episode figures (EpisodeStatsSum::figure_names) are
+  // columns and gauges, the first `reward_terms` of them reward terms.
+  TrainingLog(MetricsEndpoint& endpoint, const std::string& run_dir, const std::string& label,
+              bool leader, const Learner& learner, int reward_terms);
+  ~TrainingLog();
+
+  // A segment dropped for `verdict`: counted by reason, logged once in a
+  // hundred.
+  void Rejected(const wire::Verdict& verdict);
+  // A segment taken `lag` versions behind the learner; `stale_dropped` is the
+  // learner's total.
+  void Accepted(int64_t lag);
+  void CountStale(int64_t stale_dropped);
+  // Time spent waiting for a segment.
+  void Idle(double seconds);
+  // After an update: the progress line, the gauges and the CSV row.
+  void Updated(const Learner& learner, const UpdateStats& u, int64_t max_steps);
+  void CheckpointWritten(const char* why, const std::string& path);
+  void CheckpointFailed(const char* why, const std::string& error);
+
+ private:
+  using Clock = std::chrono::steady_clock;
+
+  std::unique_ptr<LearnerMetrics> metrics_;
+  std::string label_;
+  bool leader_;
+  std::ofstream csv_;
+  std::vector<std::string> csv_columns_;
+  const Clock::time_point start_ = Clock::now();
+  Clock::time_point last_iteration_ = start_;
+  int64_t start_samples_, start_stale_;
+  int64_t rejected_total_ = 0;
+  double idle_seconds_ = 0;  // waiting for segments since the last update
+};
+
+}  // namespace ragdoll::learner
