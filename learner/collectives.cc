@@ -63,9 +63,9 @@ class Group : public Collectives {
 
   void MergeStatistics(RunningStats& stats, const torch::Tensor& rows) override {
     torch::Tensor x = rows.contiguous();
-    // Each replica's own moments, then the union's (Chan et al.): its mean from
-    // the counts and sums, then its squared deviations as each replica's plus
-    // its mean's distance from the union's.
+    // Each replica's own moments, then the union's (Chan et al.): its mean from the counts and
+    // sums, then its squared deviations as each replica's plus its mean's distance from the
+    // union's.
     const int size = stats.size();
     const double n = static_cast<double>(x.size(0));
     RunningStats::Moments local = RunningStats::BatchMoments(x.data_ptr<float>(), x.size(0), size);
@@ -88,11 +88,10 @@ class Group : public Collectives {
     stats.Merge(count, mean, std::vector<double>(m, m + size));
   }
 
-  // Every replica takes the same number of gradient steps. A replica that holds
-  // more than its share (it took segments while waiting for the others) takes
-  // larger minibatches, and its gradient weighs by its minibatch's part of the
-  // group's: the group's step is the mean over the union of the replicas'
-  // minibatches, as one learner's would be.
+  // Every replica takes the same number of gradient steps. A replica that holds more than its share
+  // (it took segments while waiting for the others) takes larger minibatches, and its gradient
+  // weighs by its minibatch's part of the group's: the group's step is the mean over the union of
+  // the replicas' minibatches, as one learner's would be.
   Minibatches Split(int64_t samples, int64_t batch_size) override {
     torch::Tensor steps = torch::tensor({samples / std::min(batch_size, samples)}, torch::kInt64);
     group_.Min(steps);
@@ -105,11 +104,10 @@ class Group : public Collectives {
     return split_;
   }
 
-  // The group's minibatch is the union of the replicas' ones: each step
-  // normalises its advantages by that union's mean and (unbiased) standard
-  // deviation, as one learner would. The advantages stay fixed through the
-  // update, so one collective per epoch carries every step's moments (sum, sum
-  // of squares, count; float64).
+  // The group's minibatch is the union of the replicas' ones: each step normalises its advantages
+  // by that union's mean and (unbiased) standard deviation, as one learner would. The advantages
+  // stay fixed through the update, so one collective per epoch carries every step's moments (sum,
+  // sum of squares, count; float64).
   void StartEpoch(const torch::Tensor& advantages, const torch::Tensor& order) override {
     const int64_t steps = split_.steps, mb = split_.size;
     torch::Tensor a = advantages.index_select(0, order.slice(0, 0, steps * mb))
@@ -131,10 +129,9 @@ class Group : public Collectives {
     return advantages;
   }
 
-  // One all-reduce per step, on the gradients in place: every gradient and this
-  // step's KL, each weighted by this replica's share first, so their sum is the
-  // group's mean. Overlapping it with the backward pass measured slower on
-  // pinned cores (docs/learner-scaling.md).
+  // One all-reduce per step, on the gradients in place: every gradient and this step's KL, each
+  // weighted by this replica's share first, so their sum is the group's mean. Overlapping it with
+  // the backward pass measured slower on pinned cores (docs/learner-scaling.md).
   double Backward(torch::optim::Optimizer& optimizer, const torch::Tensor& loss,
                   double update_kl) override {
     const std::vector<torch::Tensor>& params = optimizer.param_groups()[0].params();
@@ -148,9 +145,8 @@ class Group : public Collectives {
   }
 
  private:
-  // Makes every parameter's gradient a view into gradients_ (re-made if a
-  // parameter was replaced), so one all-reduce works on the gradients without
-  // copies.
+  // Makes every parameter's gradient a view into gradients_ (re-made if a parameter was replaced),
+  // so one all-reduce works on the gradients without copies.
   void ViewGradientsInGroupBuffer(const std::vector<torch::Tensor>& params) {
     int64_t total = 1;  // the KL slot
     for (const auto& p : params) total += p.numel();
@@ -176,8 +172,7 @@ class Group : public Collectives {
   ReplicaGroup& group_;
   Minibatches split_;
   torch::Tensor moments_;  // this epoch's: [steps, 3] sum, sum of squares, count
-  // Every gradient, then one slot for the step's KL: what the replicas
-  // all-reduce each step.
+  // Every gradient, then one slot for the step's KL: what the replicas all-reduce each step.
   torch::Tensor gradients_;
 };
 

@@ -66,22 +66,20 @@ std::string MetricsRow(const std::vector<std::string>& columns,
   return JoinCells(row);
 }
 
-// The learner's Prometheus series. Episode and PPO figures are gauges holding
-// the latest PPO iteration's means; totals are counters of this process (a
-// resumed run's totals are gauges).
+// The learner's Prometheus series. Episode and PPO figures are gauges holding the latest PPO
+// iteration's means; totals are counters of this process (a resumed run's totals are gauges).
 struct LearnerMetrics {
   LearnerMetrics(MetricsEndpoint& m, const std::vector<std::string>& figure_names, int reward_terms)
-      : episode_return(m.Gauge("ragdoll_episode_return",
-                               "Mean undiscounted return of the episodes of "
-                               "the last PPO iteration")),
+      : episode_return(
+            m.Gauge("ragdoll_episode_return",
+                    "Mean undiscounted return of the episodes of the last PPO iteration")),
         normalized_return(m.Gauge("ragdoll_episode_normalized_return",
                                   "Mean return per step relative to the maximum (0..1) of the "
                                   "episodes of the last PPO iteration")),
         episode_length(m.Gauge("ragdoll_episode_length_steps",
                                "Mean episode length in control steps, last PPO iteration")),
         fall_ratio(m.Gauge("ragdoll_episode_fall_ratio",
-                           "Fraction of the last PPO iteration's episodes that "
-                           "ended in a fall")),
+                           "Fraction of the last PPO iteration's episodes that ended in a fall")),
         episodes(m.Counter("ragdoll_episodes_total", "Episodes finished by all actors")),
         policy_loss(m.Gauge("ragdoll_ppo_policy_loss", "Clipped surrogate loss, last update")),
         value_loss(m.Gauge("ragdoll_ppo_value_loss", "Value loss, last update")),
@@ -98,32 +96,31 @@ struct LearnerMetrics {
                                    {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64})),
         skipped_steps(m.Counter("ragdoll_ppo_skipped_gradient_steps_total",
                                 "Gradient steps skipped for a non-finite gradient")),
-        samples(m.Counter("ragdoll_learner_samples_total",
-                          "Samples trained on by this learner process (by its "
-                          "group: counted by replica 0)")),
+        samples(m.Counter(
+            "ragdoll_learner_samples_total",
+            "Samples trained on by this learner process (by its group: counted by replica 0)")),
         run_samples(m.Gauge("ragdoll_learner_run_samples",
                             "Samples trained on in the whole run (continues after a resume)")),
         samples_per_second(m.Gauge("ragdoll_learner_samples_per_second",
                                    "Samples per second over the last PPO iteration")),
         version(m.Gauge("ragdoll_policy_version", "Version of the newest policy")),
         lag(m.Histogram("ragdoll_learner_policy_lag_versions",
-                        "Policy versions between a segment's behaviour policy "
-                        "and the learner's",
+                        "Policy versions between a segment's behaviour policy and the learner's",
                         {0, 1, 2, 3, 5, 10, 20})),
         stale(m.Counter("ragdoll_learner_stale_segments_dropped_total",
                         "Segments dropped for exceeding max_policy_lag")),
         checkpoints(m.Counter("ragdoll_learner_checkpoints_total", "Checkpoints written")),
         checkpoint_failures(m.Counter("ragdoll_learner_checkpoint_failures_total",
-                                      "Checkpoints that could not be written (full disk, file "
-                                      "size limit); training went on")),
+                                      "Checkpoints that could not be written (full disk, file size "
+                                      "limit); training went on")),
         idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
                                "Wall time spent waiting for segments (nothing to do)")) {
     for (int i = 0; i < static_cast<int>(figure_names.size()); ++i) {
       figures.push_back(
           i < reward_terms
               ? &m.Gauge("ragdoll_episode_reward_term",
-                         "Mean per-step value (0..1) of one reward term (the imitation terms and "
-                         "a task's weighted term), last PPO iteration",
+                         "Mean per-step value (0..1) of one reward term (the imitation terms and a "
+                         "task's weighted term), last PPO iteration",
                          {{"term", figure_names[i]}})
               : &m.Gauge("ragdoll_episode_figure",
                          "Mean per-step value of one of a task's episode figures (steering: "
@@ -165,8 +162,8 @@ TrainingLog::TrainingLog(MetricsEndpoint& endpoint, const std::string& run_dir,
   metrics.run_samples.Set(static_cast<double>(learner.samples()));
   const fs::path csv_path = fs::path(run_dir) / "metrics.csv";
   if (!leader) return;
-  // A resumed run keeps its file's columns (an older learner's order or figures); a new one has
-  // the fixed columns, then a column per episode figure.
+  // A resumed run keeps its file's columns (an older learner's order or figures); a new one has the
+  // fixed columns, then a column per episode figure.
   if (fs::exists(csv_path)) csv_columns_ = CsvHeader(csv_path);
   const bool new_csv = csv_columns_.empty();
   if (new_csv) csv_columns_ = MetricsColumns(learner.episodes().figure_names);
@@ -210,9 +207,8 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
   double eta = (max_steps - learner.samples()) / std::max(rate, 1e-9);
   if (leader)
     std::printf(
-        "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  "
-        "fall %.2f  "
-        "v%lld  kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
+        "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  v%lld  "
+        "kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
         label_.c_str(), static_cast<long long>(learner.iterations()),
         static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
         e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
@@ -223,8 +219,7 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
   metrics.normalized_return.Set(e.Mean(e.normalized_return));
   metrics.episode_length.Set(e.Mean(e.length));
   metrics.fall_ratio.Set(e.Mean(e.falls));
-  // Totals are the group's: replica 0 counts them, so sums over replicas stay
-  // right.
+  // Totals are the group's: replica 0 counts them, so sums over replicas stay right.
   if (leader) metrics.episodes.Increment(static_cast<double>(e.episodes));
   for (size_t i = 0; i < metrics.figures.size(); ++i) metrics.figures[i]->Set(e.Mean(e.figures[i]));
   metrics.policy_loss.Set(u.policy_loss);

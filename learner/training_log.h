@@ -1,7 +1,6 @@
-// What the learner process reports of its training: a progress line per update
-// on stdout, a row of the run's metrics.csv, and the Prometheus series. Replica
-// 0 (the leader) writes the line and the CSV and counts the group's totals;
-// every replica sets its own gauges.
+// What the learner process reports of its training: a progress line per update on stdout, a row of
+// the run's metrics.csv, and the Prometheus series. Replica 0 (the leader) writes the line and the
+// CSV and counts the group's totals; every replica sets its own gauges.
 #pragma once
 
 #include <chrono>
@@ -22,26 +21,24 @@ struct LearnerMetrics;
 // The columns of a new metrics.csv: the learner's own, then one per episode figure.
 std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names);
 // A metrics.csv row: `cells` (by column name) in `columns`' order, comma-separated. A column
-// without a cell (a figure this run's environment does not report, in the file of a resumed
-// older run) holds 0, as the learner wrote such figures before they had names.
+// without a cell (a figure this run's environment does not report, in the file of a resumed older
+// run) holds 0, as the learner wrote such figures before they had names.
 std::string MetricsRow(const std::vector<std::string>& columns,
                        const std::map<std::string, std::string>& cells);
 
 class TrainingLog {
  public:
-  // Opens (appends to) `run_dir`/metrics.csv on the leader, writing its header when new (a
-  // resumed run keeps its file's columns); the elapsed time, rates and totals count from here and
-  // from `learner`'s state now. The learner's episode figures (EpisodeStatsSum::figure_names) are
+  // Opens (appends to) `run_dir`/metrics.csv on the leader, writing its header when new (a resumed
+  // run keeps its file's columns); the elapsed time, rates and totals count from here and from
+  // `learner`'s state now. The learner's episode figures (EpisodeStatsSum::figure_names) are
   // columns and gauges, the first `reward_terms` of them reward terms.
   TrainingLog(MetricsEndpoint& endpoint, const std::string& run_dir, const std::string& label,
               bool leader, const Learner& learner, int reward_terms);
   ~TrainingLog();
 
-  // A segment dropped for `verdict`: counted by reason, logged once in a
-  // hundred.
+  // A segment dropped for `verdict`: counted by reason, logged once in a hundred.
   void Rejected(const wire::Verdict& verdict);
-  // A segment taken `lag` versions behind the learner; `stale_dropped` is the
-  // learner's total.
+  // A segment taken `lag` versions behind the learner; `stale_dropped` is the learner's total.
   void Accepted(int64_t lag);
   void CountStale(int64_t stale_dropped);
   // Time spent waiting for a segment.
