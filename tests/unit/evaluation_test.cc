@@ -6,7 +6,7 @@
 #include <fstream>
 
 #include "actor/command_evaluation.h"
-
+#include "actor/push_evaluation.h"
 #include "actor/rollout.h"
 #include "common/config_section.h"
 #include "common/policy.h"
@@ -39,6 +39,7 @@ class PushTest : public ::testing::Test {
 };
 
 TEST_F(PushTest, AHardPushFellsTheCharacterAndNoPushDoesNot) {
+  push_.observe = 1.0;  // long enough to land: flying away from the reference is no fall
   RobustnessResult r = EvaluatePushes(env_, snapshot_, push_, 11);
   ASSERT_EQ(r.results.size(), 2u);
   EXPECT_EQ(r.results[0].fall_rate, 0.0);
@@ -62,6 +63,53 @@ TEST_F(PushTest, RejectsUnknownBodiesAndDirections) {
   push_.body = "root";
   push_.direction = "up";
   EXPECT_THROW(EvaluatePushes(env_, snapshot_, push_, 1), ConfigError);
+  PushProtocolConfig protocol;
+  protocol.directions = {"forward", "random"};  // the protocol's directions are of the heading
+  EXPECT_THROW(EvaluatePushProtocol(env_, snapshot_, protocol, 1), ConfigError);
+  protocol.directions = {"left"};
+  protocol.resolution = 0;
+  EXPECT_THROW(EvaluatePushProtocol(env_, snapshot_, protocol, 1), ConfigError);
+}
+
+// DeepMimic's protocol finds, per direction, an impulse the character survives (the sweep at that
+// impulse agrees) within the resolution of one it does not, and divides it by the character's
+// mass; the same seed gives the same search.
+TEST_F(PushTest, TheProtocolBisectsToTheLargestImpulseSurvivedPerDirection) {
+  PushProtocolConfig protocol;
+  protocol.trials = 5;  // no fall allowed
+  protocol.settle = 0.2;
+  protocol.observe = 0.6;
+  protocol.resolution = 8;
+  protocol.directions = {"forward", "left"};
+  const PushProtocolResult r = EvaluatePushProtocol(env_, snapshot_, protocol, 5);
+  const auto character = sim::Character::Load(env_.character, env_.physics_dt());
+  double mass = 0;
+  for (int b = 1; b < character->model()->nbody; ++b) mass += character->model()->body_mass[b];
+  EXPECT_NEAR(r.mass, mass, 1e-9);
+  ASSERT_EQ(r.directions.size(), 2u);
+  for (const DirectionResult& d : r.directions) {
+    SCOPED_TRACE(d.direction);
+    EXPECT_FALSE(d.at_limit);
+    EXPECT_GE(d.survived_90, protocol.start);  // the untrained policy stands a 10 N s push
+    EXPECT_DOUBLE_EQ(d.velocity_change, d.survived_90 / mass);
+    // Doubling from 10 N s to the first failure F, then halving [F / 2, F] to 8 N s.
+    const int doublings = static_cast<int>(std::floor(std::log2(d.survived_90 / 10))) + 2;
+    EXPECT_LE(d.impulses_tried,
+              doublings +
+                  static_cast<int>(std::ceil(std::log2(d.survived_90 / protocol.resolution))) + 1);
+    PushConfig sweep;
+    sweep.impulses = {d.survived_90};
+    sweep.duration = protocol.duration;
+    sweep.trials = protocol.trials;
+    sweep.settle = protocol.settle;
+    sweep.observe = protocol.observe;
+    sweep.direction = d.direction;
+    EXPECT_EQ(EvaluatePushes(env_, snapshot_, sweep, 5).results[0].fall_rate, 0.0);
+  }
+  const PushProtocolResult again = EvaluatePushProtocol(env_, snapshot_, protocol, 5);
+  EXPECT_EQ(again.directions[1].survived_90, r.directions[1].survived_90);
+  EXPECT_NE(r.ToTable().find("left"), std::string::npos) << r.ToTable();
+  EXPECT_NE(r.ToJson().find("\"velocity_change\""), std::string::npos);
 }
 
 // Scripted commands on a set of two clips that both stand still: "stand" demonstrates standing,
