@@ -28,6 +28,8 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   // Checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml.
   auto run = std::filesystem::path(p.checkpoint).parent_path().parent_path();
   p.experiment = ReadExperiment((run / "config.yaml").string());
+  // Evaluation, play and export run the policy unpushed; their pushes are their own.
+  p.experiment.environment.perturbations = {};
   const sim::EnvSpec spec = sim::MakeEnvSpec(p.experiment.environment);
   learner::Learner l(p.experiment.trainer, spec.observation_size, spec.action_size);
   l.Load(p.checkpoint);

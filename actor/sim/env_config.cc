@@ -97,6 +97,41 @@ void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
   s.Finish();
 }
 
+// A {min, max} pair of positive numbers.
+void ReadRange(const ConfigSection& parent, const std::string& key, double* min, double* max) {
+  ConfigSection range = parent.Section(key);
+  *min = Positive(range, "min", *min);
+  *max = Positive(range, "max", *max);
+  if (*max < *min) range.Fail("max", "must be at least `min`");
+  range.Finish();
+}
+
+void ReadPerturbations(const ConfigSection& parent, PerturbationConfig* c) {
+  if (!parent.Has("perturbations")) return;
+  ConfigSection s = parent.Section("perturbations");
+  c->bodies = s.GetStringList("bodies", {"root", "chest", "left_shoulder", "right_shoulder"});
+  if (c->bodies.empty()) s.Fail("bodies", "needs at least one body to push");
+  ReadRange(s, "interval", &c->interval_min, &c->interval_max);
+  ReadRange(s, "duration", &c->duration_min, &c->duration_max);
+  ConfigSection impulse = s.Section("impulse");
+  c->start = Positive(impulse, "start", c->start);
+  c->max = Positive(impulse, "max", c->max);
+  c->step = NonNegative(impulse, "step", c->step);
+  if (c->max < c->start) impulse.Fail("max", "must be at least `start`");
+  impulse.Finish();
+  ConfigSection curriculum = s.Section("curriculum");
+  c->window = curriculum.Get<int>("window", c->window);
+  if (c->window < 1) curriculum.Fail("window", "must be at least 1");
+  c->raise_above = NonNegative(curriculum, "raise_above", c->raise_above);
+  c->lower_below = NonNegative(curriculum, "lower_below", c->lower_below);
+  if (c->raise_above > 1 || c->lower_below > c->raise_above) {
+    curriculum.Fail("lower_below", "needs 0 <= lower_below <= raise_above <= 1");
+  }
+  c->judge = Positive(curriculum, "judge", c->judge);
+  curriculum.Finish();
+  s.Finish();
+}
+
 }  // namespace
 
 EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_character) {
@@ -149,6 +184,8 @@ EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_chara
     s.Fail("sync_reference",
            "expected 'none', 'position' or 'position_and_heading', got '" + sync + "'");
   }
+
+  ReadPerturbations(s, &c.perturbations);
 
   ConfigSection weights = s.Section("joint_weights");
   for (auto& [name, w] : c.joint_weights) w = NonNegative(weights, name, w);

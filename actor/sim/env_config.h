@@ -72,6 +72,23 @@ struct SteeringConfig {
   double MaxReward() const { return enabled() ? velocity_weight + heading_weight : 0.0; }
 };
 
+// Random pushes while training (the `perturbations:` section): at random intervals a random body
+// is pushed horizontally in a random direction for a random duration, with an impulse drawn from
+// [level / 2, level]. The level is a curriculum per environment: after every `window` pushes it
+// rises by `step` when the character survived at least `raise_above` of them (no fall within
+// `judge` seconds of the push's start) and falls by `step` when fewer than `lower_below`, within
+// [start, max]. Evaluation, play and export run a policy without them.
+struct PerturbationConfig {
+  std::vector<std::string> bodies;                // pushed at random; empty: no pushes
+  double interval_min = 1.0, interval_max = 3.0;  // s between pushes
+  double duration_min = 0.1, duration_max = 0.2;  // s a push lasts
+  double start = 20, max = 150, step = 5;         // the level, N s
+  int window = 10;
+  double raise_above = 0.8, lower_below = 0.5;
+  double judge = 2.0;  // s
+  bool enabled() const { return !bodies.empty(); }
+};
+
 struct EnvConfig {
   std::string character;          // MJCF file
   std::string motion;             // reference clip (project format or DeepMimic motion file)
@@ -99,6 +116,7 @@ struct EnvConfig {
       {"left_knee", 0.3},   {"left_ankle", 0.2},     {"left_shoulder", 0.3}, {"left_elbow", 0.2}};
   RewardConfig reward;
   SteeringConfig steering;
+  PerturbationConfig perturbations;
 
   double control_dt() const { return 1.0 / control_frequency; }
   double physics_dt() const { return 1.0 / (control_frequency * substeps); }

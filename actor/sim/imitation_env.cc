@@ -50,7 +50,11 @@ EnvSpec SpecWithTask(const EnvConfig& config, const Character& character, const 
   if (!task.reward_term().empty()) spec.figure_names.push_back(task.reward_term());
   spec.reward_terms = static_cast<int>(spec.figure_names.size());
   spec.figure_units.assign(spec.figure_names.size(), "");
-  for (const FigureSpec& f : task.FigureSpecs()) {
+  std::vector<FigureSpec> figures = task.FigureSpecs();
+  if (config.perturbations.enabled()) {
+    for (FigureSpec& f : Perturbations::FigureSpecs()) figures.push_back(std::move(f));
+  }
+  for (const FigureSpec& f : figures) {
     spec.figure_names.push_back(f.name);
     spec.figure_units.push_back(f.unit);
   }
@@ -143,6 +147,11 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
     may_touch_ground_[id] = 1;
   }
 
+  if (config_.perturbations.enabled()) {
+    // A stream of its own (the seed's bits turned), so that pushes leave the start phases be.
+    perturbations_ = std::make_unique<Perturbations>(config_.perturbations, *character_,
+                                                     config_.control_dt(), ~seed);
+  }
   spec_ = SpecWithTask(config_, *character_, *task_);
   imitation_observation_size_ = ObservationSize(*character_);
   episode_.figures.assign(spec_.figure_names.size(), 0.0);
@@ -220,6 +229,7 @@ void ImitationEnv::ResetAtPhase(double phase, float* observation) {
   const mjModel* m = character_->model();
   mjData* d = data_.get();
   mj_resetData(m, d);
+  if (perturbations_) perturbations_->Reset();
   reference_entry_ = task_->StartEntry(*motions_);
   clip_ = motions_->entry(reference_entry_).clip.get();
   time_ = phase * clip_->duration();
@@ -415,6 +425,7 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     d->ctrl[h.actuator] = std::clamp(target, h.lower, h.upper);
   }
 
+  if (perturbations_) perturbations_->BeforeStep(d);
   // mj_step = mj_step1 (positions, velocities, contacts) + mj_step2 (forces, integration).
   // Running step1 after each integration instead of before keeps every derived quantity in
   // `d` current for the observation and reward at no extra cost (Euler integrator).
@@ -483,6 +494,10 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   }
   if (spec_.reward_terms > kImitationTermCount) *figures++ = mean.task;
   task_->Figures(n, figures);
+  if (perturbations_) {
+    perturbations_->AfterStep(result.terminated || result.truncated, episode_.fell());
+    episode_.figures.back() = perturbations_->level();
+  }
   episode_.normalized_return =
       episode_.episode_return / (spec_.max_reward_per_step * episode_.max_length);
 

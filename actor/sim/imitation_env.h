@@ -13,6 +13,7 @@
 #include "actor/sim/imitation_reward.h"
 #include "actor/sim/motion_clip.h"
 #include "actor/sim/motion_set.h"
+#include "actor/sim/perturbations.h"
 #include "actor/sim/task.h"
 
 namespace ragdoll::sim {
@@ -179,6 +180,7 @@ class ImitationEnv final : public TaskHost {
   int64_t bad_actions_ = 0;
   int64_t unstable_resets_ = 0;
   std::unique_ptr<Task> task_;
+  std::unique_ptr<Perturbations> perturbations_;  // with EnvConfig::perturbations
   int imitation_observation_size_ = 0;
 };
 

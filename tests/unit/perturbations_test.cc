@@ -1,0 +1,172 @@
+#include "actor/sim/perturbations.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "actor/sim/imitation_env.h"
+#include "actor/sim/motion_io.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+const std::string kAssets = RAGDOLL_ASSETS_DIR;
+constexpr double kDt = 1.0 / 30;
+
+class PerturbationsTest : public ::testing::Test {
+ protected:
+  PerturbationsTest()
+      : character_(Character::Load(kAssets + "/character/humanoid.xml", kDt / 10)),
+        data_(character_->MakeData()) {
+    config_.bodies = {"chest"};
+    config_.interval_min = config_.interval_max = 1.0;  // 30 steps
+    config_.duration_min = config_.duration_max = 0.1;  // 3 steps
+    config_.start = 20;
+    config_.max = 30;
+    config_.step = 5;
+    config_.window = 2;
+    config_.judge = 0.5;  // 15 steps
+  }
+  // The horizontal force on the chest now, N.
+  double Force() const {
+    const double* f =
+        data_->xfrc_applied + 6 * mj_name2id(character_->model(), mjOBJ_BODY, "chest");
+    EXPECT_EQ(f[2], 0);
+    return std::hypot(f[0], f[1]);
+  }
+  std::shared_ptr<const Character> character_;
+  DataPtr data_;
+  PerturbationConfig config_;
+};
+
+// Every 30 steps a push of 3 steps whose impulse is in [level / 2, level]; nothing in between.
+TEST_F(PerturbationsTest, PushesForTheirDurationAtTheirIntervalWithinTheLevel) {
+  Perturbations p(config_, *character_, kDt, 7);
+  std::vector<int> pushed_steps;
+  for (int step = 1; step <= 95; ++step) {
+    p.BeforeStep(data_.get());
+    const double force = Force();
+    if (force > 0) {
+      pushed_steps.push_back(step);
+      const double impulse = force * 3 * kDt;
+      EXPECT_GE(impulse, 10 - 1e-9);
+      EXPECT_LE(impulse, 20 + 1e-9);
+    }
+    p.AfterStep(false, false);
+  }
+  EXPECT_EQ(pushed_steps, (std::vector<int>{30, 31, 32, 63, 64, 65}));
+  EXPECT_EQ(p.pushes(), 2);
+}
+
+// The level rises by a step after a window of survived pushes, up to max, and falls by a step
+// after a window of falls, down to start; an episode that ends in a fall judges its push.
+TEST_F(PerturbationsTest, TheLevelFollowsTheCharacterWithinStartAndMax) {
+  config_.interval_min = config_.interval_max = 0.1;  // a push every 6 steps
+  Perturbations p(config_, *character_, kDt, 7);
+  // Steps until the next push starts; that step ends the episode in a fall, or not.
+  auto push_and_wait = [&](bool fall) {
+    for (int before = p.pushes(); p.pushes() == before;) {
+      p.BeforeStep(data_.get());
+      if (p.pushes() == before) p.AfterStep(false, false);
+    }
+    p.AfterStep(fall, fall);
+    if (fall) p.Reset();
+  };
+  EXPECT_EQ(p.level(), 20);
+  // Each push is judged survived when the next one comes first.
+  for (int i = 0; i < 3; ++i) push_and_wait(false);
+  EXPECT_EQ(p.level(), 25);
+  for (int i = 0; i < 3; ++i) push_and_wait(false);
+  EXPECT_EQ(p.level(), 30);  // and held at max
+  for (int i = 0; i < 2; ++i) push_and_wait(true);
+  EXPECT_EQ(p.level(), 25);
+  for (int i = 0; i < 6; ++i) push_and_wait(true);
+  EXPECT_EQ(p.level(), 20);  // held at start
+}
+
+TEST_F(PerturbationsTest, AnUnknownBodyIsNamed) {
+  config_.bodies = {"tail"};
+  try {
+    Perturbations p(config_, *character_, kDt, 1);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("'tail'"));
+  }
+}
+
+// In the environment: pushes leave the start phases and the first observation as they were, add
+// the level as an episode figure, and a character standing by PD tracking falls sooner when
+// pushed hard on the chest.
+TEST_F(PerturbationsTest, AnEnvironmentWithPushesStartsItsEpisodesAsBeforeAndFallsSooner) {
+  EnvConfig env;
+  env.character = kAssets + "/character/humanoid.xml";
+  env.substeps = 10;
+  env.action_mode = ActionMode::kOffset;
+  env.max_episode_steps = 90;
+  auto clip = std::make_shared<const MotionClip>(LoadMotion(kAssets + "/motions/stand.json"));
+  ImitationEnv plain(character_, clip, env, 5);
+  config_.start = config_.max = 150;
+  env.perturbations = config_;
+  ImitationEnv pushed(character_, clip, env, 5);
+  EXPECT_EQ(pushed.spec().figure_names.back(), "push_level");
+  EXPECT_EQ(pushed.spec().figure_units.back(), "N s");
+  EXPECT_EQ(pushed.spec().observation_size, plain.spec().observation_size);
+  const int n = plain.spec().observation_size;
+  std::vector<float> a(n), b(n), action(plain.spec().action_size, 0.0f);
+  int plain_steps = 0, pushed_steps = 0;
+  for (int episode = 0; episode < 3; ++episode) {
+    plain.Reset(a.data());
+    pushed.Reset(b.data());
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(plain.time(), pushed.time());
+    for (StepResult r; !r.terminated && !r.truncated; ++plain_steps)
+      r = plain.Step(action.data(), a.data());
+    for (StepResult r; !r.terminated && !r.truncated; ++pushed_steps) {
+      r = pushed.Step(action.data(), b.data());
+    }
+    EXPECT_EQ(pushed.episode().figures.back(), 150);
+  }
+  EXPECT_LT(pushed_steps, plain_steps);
+}
+
+TEST(PerturbationConfig, ReadsItsSectionAndNamesBadValues) {
+  auto read = [](const std::string& yaml) {
+    return ReadEnvConfig(ConfigSection::FromString("motion: m.json\n" + yaml, "env.yaml"),
+                         "humanoid.xml");
+  };
+  EXPECT_FALSE(read("").perturbations.enabled());
+  const EnvConfig c = read(
+      "perturbations:\n  interval: {min: 2, max: 4}\n  impulse: {start: 10, max: 90, step: 2}\n"
+      "  curriculum: {window: 20}\n");
+  EXPECT_EQ(c.perturbations.bodies,
+            (std::vector<std::string>{"root", "chest", "left_shoulder", "right_shoulder"}));
+  EXPECT_EQ(c.perturbations.interval_min, 2);
+  EXPECT_EQ(c.perturbations.interval_max, 4);
+  EXPECT_EQ(c.perturbations.max, 90);
+  EXPECT_EQ(c.perturbations.window, 20);
+  EXPECT_EQ(c.perturbations.duration_max, 0.2);
+  auto error = [&](const std::string& yaml) -> std::string {
+    try {
+      read(yaml);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_THAT(error("perturbations:\n  impulse: {start: 50, max: 40}\n"),
+              HasSubstr("perturbations.impulse.max"));
+  EXPECT_THAT(error("perturbations:\n  interval: {min: 0}\n"),
+              HasSubstr("perturbations.interval.min"));
+  EXPECT_THAT(error("perturbations:\n  bodies: []\n"), HasSubstr("perturbations.bodies"));
+  EXPECT_THAT(error("perturbations:\n  curriculum: {raise_above: 0.4, lower_below: 0.6}\n"),
+              HasSubstr("lower_below"));
+  EXPECT_THAT(error("perturbations:\n  impluse: {start: 5}\n"), HasSubstr("impluse"));
+}
+
+}  // namespace
+}  // namespace ragdoll::sim
