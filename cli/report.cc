@@ -510,7 +510,15 @@ EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string
     s.checkpoint = j.value("checkpoint", std::string());
     if (j.contains("perturbation")) {
       s.pushes = true;
-      s.survived_90 = j.at("perturbation").value("survived_90", -1.0);
+      const nlohmann::json& perturbation = j.at("perturbation");
+      s.survived_90 = perturbation.value("survived_90", -1.0);
+      if (perturbation.contains("protocol")) {
+        for (const auto& d : perturbation.at("protocol").at("directions")) {
+          s.push_directions.push_back(
+              {d.at("direction").get<std::string>(), d.at("survived_90").get<double>(),
+               d.at("velocity_change").get<double>(), d.value("at_limit", false)});
+        }
+      }
     }
   } catch (const nlohmann::json::exception& e) {
     throw ConfigError(origin + ": not an evaluation written by `ragdoll eval` (" + e.what() + ")");
@@ -758,6 +766,25 @@ std::string EvaluationSection(const std::vector<RunReport>& runs) {
         return !e.pushes           ? std::string("—")
                : e.survived_90 < 0 ? std::string("none")
                                    : Format("%g", e.survived_90);
+      });
+    }
+    std::vector<std::string> directions;  // of DeepMimic's protocol, in the first run's order
+    for (size_t r : evaluated) {
+      for (const auto& d : runs[r].evaluation->push_directions) {
+        if (std::find(directions.begin(), directions.end(), d.direction) == directions.end()) {
+          directions.push_back(d.direction);
+        }
+      }
+    }
+    for (const std::string& direction : directions) {
+      row("push survived " + Escape(direction) + ", 0.2 s (N s, m/s)", [&direction](E e) {
+        for (const auto& d : e.push_directions) {
+          if (d.direction == direction) {
+            return std::string(d.at_limit ? "&ge; " : "") + Format("%g", d.impulse) + ", " +
+                   Format("%.2f", d.velocity_change);
+          }
+        }
+        return std::string("—");
       });
     }
     row("policy version", [](E e) {

@@ -41,6 +41,14 @@ struct EvaluationSummary {
   std::string checkpoint;
   double survived_90 = -1;  // with push trials: largest impulse survived in 90 %, N s
   bool pushes = false;
+  // DeepMimic's protocol (eval --pushes): per direction of the heading, the largest impulse
+  // survived in 90 % (N s) and the whole body's change of velocity (m/s); empty without it.
+  struct DirectionPush {
+    std::string direction;
+    double impulse = 0, velocity_change = 0;
+    bool at_limit = false;
+  };
+  std::vector<DirectionPush> push_directions;
 };
 
 // Throws ConfigError naming `origin` for text that is not JSON or lacks the evaluation's fields.

@@ -270,6 +270,21 @@ TEST(Evaluation, ReadsEvalJsonWithAndWithoutTheCheckpoint) {
   EXPECT_EQ(old.samples, -1);
   EXPECT_TRUE(old.pushes);
   EXPECT_DOUBLE_EQ(old.survived_90, 20);
+  EXPECT_TRUE(old.push_directions.empty());
+
+  EvaluationSummary pushed = ParseEvaluationJson(
+      R"({"episode_length": 30, "episodes": 5, "fall_rate": 0, "mean_return": 1,
+          "normalized_return": 0.5, "reward_terms": {"rotation": 1},
+          "perturbation": {"survived_90": 20.0, "protocol": {"mass": 60, "directions": [
+            {"direction": "forward", "survived_90": 90, "velocity_change": 1.5, "at_limit": false},
+            {"direction": "left", "survived_90": 640, "velocity_change": 10.67, "at_limit": true}
+          ]}}})",
+      "pushed.json");
+  ASSERT_EQ(pushed.push_directions.size(), 2u);
+  EXPECT_EQ(pushed.push_directions[0].direction, "forward");
+  EXPECT_DOUBLE_EQ(pushed.push_directions[0].impulse, 90);
+  EXPECT_DOUBLE_EQ(pushed.push_directions[0].velocity_change, 1.5);
+  EXPECT_TRUE(pushed.push_directions[1].at_limit);
 
   EXPECT_EQ(ErrorOf([] {
               ParseEvaluationJson("{\"episodes\": 3", "e.json");
@@ -321,7 +336,9 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
       R"({"checkpoint": "runs/a/checkpoints/checkpoint-000000123456.pt", "episode_length": 29.5,
           "episodes": 20, "fall_rate": 0.05, "mean_return": 25.25, "normalized_return": 0.987,
           "policy_version": 12, "samples": 123456, "reward_terms": {"com": 0.9,
-          "end_effector": 0.8, "root": 0.7, "rotation": 0.6, "velocity": 0.5}})",
+          "end_effector": 0.8, "root": 0.7, "rotation": 0.6, "velocity": 0.5},
+          "perturbation": {"survived_90": 20, "protocol": {"directions": [{"direction":
+          "forward", "survived_90": 38.75, "velocity_change": 0.6458, "at_limit": false}]}}})",
       "eval.json");
   a.gif = std::string("GIF89a\x01\x00\x01\x00", 10);
   a.gif_caption = "5 s of the newest checkpoint";
@@ -351,6 +368,9 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
             std::string::npos);
   // The evaluation table and its checkpoint, and how to refresh it.
   EXPECT_NE(html.find("<td>fall rate</td><td class=\"num\">0.05</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>push survived forward, 0.2 s (N s, m/s)</td><td class=\"num\">38.75, "
+                      "0.65</td>"),
+            std::string::npos);
   EXPECT_NE(html.find("<td>policy version</td><td class=\"num\">v12</td>"), std::string::npos);
   EXPECT_NE(html.find("<td class=\"num\">123 456</td>"), std::string::npos);
   EXPECT_NE(html.find("checkpoint-000000123456.pt"), std::string::npos);
