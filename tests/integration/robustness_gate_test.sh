@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The robustness regression gate: a trained policy shipped in tests/data is evaluated with a short
+# push eval (DeepMimic's protocol, 10 trials a direction) and must keep the figures recorded with
+# it in its robustness.json: unpushed normalised return within 0.03, and in every direction at
+# least 3/4 of the recorded impulse (the margin covers other CPUs' float rounding, which changes
+# single trials; a broken push, reward or controller costs far more).
+#   robustness_gate_test.sh RAGDOLL CHECKPOINT RECORDED_JSON
+set -euo pipefail
+ragdoll=$1 checkpoint=$2 recorded=$3
+out=$(mktemp /tmp/ragdoll-gate.XXXXXX.json)
+trap 'rm -f "$out"' EXIT
+"$ragdoll" eval "$checkpoint" --pushes --push-trials 10 --push-resolution 4 --episodes 4 \
+  --push-impulses 0 --json "$out" > /dev/null
+python3 - "$out" "$recorded" <<'PY'
+import json, sys
+got, want = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+failures = []
+nr = got["normalized_return"]
+print(f"unpushed normalised return {nr:.3f} (recorded {want['normalized_return']:.3f})")
+if nr < want["normalized_return"] - 0.03:
+    failures.append(f"normalised return {nr:.3f} < {want['normalized_return'] - 0.03:.3f}")
+for d in got["perturbation"]["protocol"]["directions"]:
+    floor = 0.75 * want["protocol"][d["direction"]]
+    print(f"{d['direction']:9s} {d['survived_90']:6.1f} N s ({d['velocity_change']:.2f} m/s), "
+          f"recorded {want['protocol'][d['direction']]:.1f}, floor {floor:.1f}")
+    if d["survived_90"] < floor:
+        failures.append(f"{d['direction']} {d['survived_90']} N s < {floor} N s")
+for f in failures:
+    print("FAIL:", f)
+sys.exit(1 if failures else 0)
+PY
