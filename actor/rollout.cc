@@ -118,6 +118,11 @@ void RolloutWorker::SetCommandFirst(int entry) {
   envs_[0]->Observe(observations_.data());
 }
 
+void RolloutWorker::SetStateFirst(const double* qpos, const double* qvel) {
+  envs_[0]->SetState(qpos, qvel);
+  envs_[0]->Observe(observations_.data());
+}
+
 std::vector<v1::TrajectorySegment> RolloutWorker::Collect() {
   if (!has_policy()) throw std::logic_error("Collect() before SetPolicy()");
   const int K = environments(), O = spec().observation_size, A = spec().action_size;

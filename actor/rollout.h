@@ -48,6 +48,8 @@ class RolloutWorker {
   void ResetFirst(double phase);
   // Steering: gives environment 0 a command (a motion-set entry) and refreshes its observation.
   void SetCommandFirst(int entry);
+  // Puts environment 0 in a simulated state (nq and nv values) and refreshes its observation.
+  void SetStateFirst(const double* qpos, const double* qvel);
 
   int64_t samples() const { return samples_; }
 

@@ -11,6 +11,7 @@
 #include "actor/command_evaluation.h"
 #include "actor/evaluation.h"
 #include "actor/push_evaluation.h"
+#include "actor/recovery_evaluation.h"
 #include "actor/sim/character.h"
 #include "actor/sim/motion_set.h"
 #include "cli/trained_policy.h"
@@ -26,6 +27,7 @@ struct EvalOptions {
   bool pushes = false;
   actor::PushConfig push;
   actor::PushProtocolConfig protocol;
+  actor::RecoveryConfig recovery{0};  // no recovery trials unless asked
   std::string commands;  // a command script file, "random", or empty (no scripted runs)
   actor::CommandEvalConfig command_eval;
 };
@@ -73,6 +75,11 @@ int RunEval(EvalOptions& o) {
     robustness = std::make_unique<actor::RobustnessResult>(
         actor::EvaluatePushes(env, policy.snapshot, o.push, o.seed));
   }
+  std::unique_ptr<actor::RecoveryResult> recovery;
+  if (o.recovery.trials > 0) {
+    recovery = std::make_unique<actor::RecoveryResult>(
+        actor::EvaluateRecovery(env, policy.snapshot, o.recovery, o.seed));
+  }
   std::unique_ptr<actor::CommandEvalResult> scripted;
   if (!o.commands.empty()) {
     scripted = std::make_unique<actor::CommandEvalResult>(EvaluateScripts(policy, o));
@@ -80,6 +87,7 @@ int RunEval(EvalOptions& o) {
   // Which checkpoint was evaluated goes with the figures (`ragdoll report` shows it).
   nlohmann::json result = nlohmann::json::parse(r.ToJson(robustness.get()));
   if (protocol) result["perturbation"]["protocol"] = nlohmann::json::parse(protocol->ToJson());
+  if (recovery) result["recovery"] = nlohmann::json::parse(recovery->ToJson());
   if (scripted) {
     result["commands"] = nlohmann::json::parse(scripted->ToJson());
     result["commands"]["script"] = o.commands;
@@ -97,6 +105,7 @@ int RunEval(EvalOptions& o) {
                r.fall_rate, r.episodes);
   if (protocol) std::fprintf(stderr, "%s", protocol->ToTable().c_str());
   if (robustness) std::fprintf(stderr, "%s", robustness->ToTable().c_str());
+  if (recovery) std::fprintf(stderr, "%s", recovery->ToTable().c_str());
   if (scripted) std::fprintf(stderr, "%s", scripted->ToTable().c_str());
   if (!o.json_out.empty()) std::ofstream(o.json_out) << json << "\n";
   if (std::filesystem::is_directory(o.target)) WriteRunEvaluation(o.target, json);
@@ -136,6 +145,12 @@ std::function<int()> AddEvalCommand(CLI::App& app) {
   cmd->add_option("--push-direction", o->push.direction,
                   "of the sweep: random, or forward/backward/left/right of the heading")
       ->capture_default_str();
+  cmd->add_option("--recovery", o->recovery.trials,
+                  "also drop the character into N random settled falls (front, back, sides) and "
+                  "report the share standing within 5 s and 10 s and the median time");
+  cmd->add_option("--recovery-seconds", o->recovery.seconds, "watched per recovery trial, s")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--commands", o->commands,
                   "steering runs: play a command script (FILE) or 'random' scripts, and "
                   "score speed and heading tracking, falls and transitions");

@@ -7,6 +7,7 @@
 
 #include "actor/command_evaluation.h"
 #include "actor/push_evaluation.h"
+#include "actor/recovery_evaluation.h"
 #include "actor/rollout.h"
 #include "common/config_section.h"
 #include "common/policy.h"
@@ -110,6 +111,27 @@ TEST_F(PushTest, TheProtocolBisectsToTheLargestImpulseSurvivedPerDirection) {
   EXPECT_EQ(again.directions[1].survived_90, r.directions[1].survived_90);
   EXPECT_NE(r.ToTable().find("left"), std::string::npos) << r.ToTable();
   EXPECT_NE(r.ToJson().find("\"velocity_change\""), std::string::npos);
+}
+
+// An untrained policy does not get up: every trial is timed as never, the shares are 0, and the
+// table and JSON say so; each trial names how the character lay.
+TEST_F(PushTest, AnUntrainedPolicyDoesNotGetUpFromAFall) {
+  RecoveryConfig recovery;
+  recovery.trials = 3;
+  recovery.seconds = 2;
+  const RecoveryResult r = EvaluateRecovery(env_, snapshot_, recovery, 4);
+  EXPECT_EQ(r.times, (std::vector<double>{-1, -1, -1}));
+  EXPECT_EQ(r.within_5, 0);
+  EXPECT_EQ(r.within_10, 0);
+  EXPECT_EQ(r.median_seconds, -1);
+  ASSERT_EQ(r.postures.size(), 3u);
+  for (const auto& p : r.postures)
+    EXPECT_TRUE(p == "face down" || p == "face up" || p == "side") << p;
+  EXPECT_NE(r.ToTable().find("within 10 s 0 %, median time never"), std::string::npos)
+      << r.ToTable();
+  EXPECT_NE(r.ToJson().find("\"within_10\": 0.0"), std::string::npos) << r.ToJson();
+  recovery.trials = 0;
+  EXPECT_THROW(EvaluateRecovery(env_, snapshot_, recovery, 4), ConfigError);
 }
 
 // Scripted commands on a set of two clips that both stand still: "stand" demonstrates standing,
