@@ -717,6 +717,19 @@ std::string CurvesSection(const std::string& curves_svg) {
   return h;
 }
 
+// Every evaluated run's names (`names` of its evaluation), in the order they first appear.
+template <typename Names>
+std::vector<std::string> NamesOfRuns(const std::vector<RunReport>& runs,
+                                     const std::vector<size_t>& evaluated, Names names) {
+  std::vector<std::string> all;
+  for (size_t r : evaluated) {
+    for (const std::string& name : names(*runs[r].evaluation)) {
+      if (std::find(all.begin(), all.end(), name) == all.end()) all.push_back(name);
+    }
+  }
+  return all;
+}
+
 // The latest evaluations: quantities as rows, runs with an eval.json as columns.
 std::string EvaluationSection(const std::vector<RunReport>& runs) {
   std::string h;
@@ -744,14 +757,11 @@ std::string EvaluationSection(const std::vector<RunReport>& runs) {
     row("episode length (steps)", [](E e) { return Format("%.1f", e.episode_length); });
     row("episodes", [](E e) { return std::to_string(e.episodes); });
     row("mean return", [](E e) { return Format("%.2f", e.mean_return); });
-    std::vector<std::string> terms;  // every run's, in the first run's order
-    for (size_t r : evaluated) {
-      for (const auto& term : runs[r].evaluation->reward_terms) {
-        if (std::find(terms.begin(), terms.end(), term.first) == terms.end()) {
-          terms.push_back(term.first);
-        }
-      }
-    }
+    const auto terms = NamesOfRuns(runs, evaluated, [](E e) {
+      std::vector<std::string> names;
+      for (const auto& term : e.reward_terms) names.push_back(term.first);
+      return names;
+    });
     for (const std::string& term : terms) {
       row(Escape(term) + " term", [&term](E e) {
         for (const auto& [name, value] : e.reward_terms) {
@@ -768,14 +778,11 @@ std::string EvaluationSection(const std::vector<RunReport>& runs) {
                                    : Format("%g", e.survived_90);
       });
     }
-    std::vector<std::string> directions;  // of DeepMimic's protocol, in the first run's order
-    for (size_t r : evaluated) {
-      for (const auto& d : runs[r].evaluation->push_directions) {
-        if (std::find(directions.begin(), directions.end(), d.direction) == directions.end()) {
-          directions.push_back(d.direction);
-        }
-      }
-    }
+    const auto directions = NamesOfRuns(runs, evaluated, [](E e) {  // DeepMimic's protocol
+      std::vector<std::string> names;
+      for (const auto& d : e.push_directions) names.push_back(d.direction);
+      return names;
+    });
     for (const std::string& direction : directions) {
       row("push survived " + Escape(direction) + ", 0.2 s (N s, m/s)", [&direction](E e) {
         for (const auto& d : e.push_directions) {
