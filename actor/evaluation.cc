@@ -1,16 +1,10 @@
 #include "actor/evaluation.h"
 
-#include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <map>
 #include <nlohmann/json.hpp>
-#include <random>
-#include <sstream>
 
 #include "actor/push_evaluation.h"
 #include "actor/rollout.h"
-#include "common/config_section.h"
 
 namespace ragdoll::actor {
 
@@ -60,4 +54,3 @@ EvaluationResult Evaluate(RolloutWorker& worker, int episodes) {
 }
 
 }  // namespace ragdoll::actor
-
