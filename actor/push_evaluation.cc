@@ -19,6 +19,9 @@ namespace {
 const std::map<std::string, double> kHeadingAngle = {
     {"forward", 0}, {"left", M_PI / 2}, {"backward", M_PI}, {"right", -M_PI / 2}};
 
+// Survived in at least 90 % of the trials: the one criterion of the sweep and the protocol.
+bool Survived(int falls, int trials) { return falls * 10 <= trials; }
+
 void CheckDirection(const std::string& direction, bool random_allowed) {
   if ((random_allowed && direction == "random") || kHeadingAngle.count(direction)) return;
   throw ConfigError("push direction '" + direction + "': one of " +
@@ -58,27 +61,33 @@ class PushTrials {
   }
 
   int trials() const { return static_cast<int>(phases_.size()); }
-  double push_seconds() const { return push_seconds_; }
   double mass() { return worker_.environment(0).character().total_mass(); }
 
-  // Every trial pushed with `impulse` toward `direction`.
-  PushResult Run(double impulse, const std::string& direction) {
+  // Every trial pushed with `impulse` toward `direction`; `falls` counts those that fell.
+  PushResult Run(double impulse, const std::string& direction, int* falls) {
     PushResult r;
     r.impulse = impulse;
     r.force = impulse / push_seconds_;
-    int run = 0;
-    const int falls = Falls(impulse, direction, trials(), &run, &r.normalized_return);
-    r.fall_rate = static_cast<double>(falls) / run;
-    r.normalized_return /= run;
+    *falls = 0;
+    for (int t = 0; t < trials(); ++t) {
+      *falls += Trial(t, r.force, direction) ? 1 : 0;
+      const sim::EpisodeStats& e = worker_.environment(0).episode();
+      r.normalized_return +=
+          e.episode_return / (worker_.spec().max_reward_per_step * std::max(e.length, 1));
+    }
+    r.fall_rate = static_cast<double>(*falls) / trials();
+    r.normalized_return /= trials();
     return r;
   }
 
-  // Survived in at least 90 % of the trials (stops at the first fall beyond that).
+  // Whether the character survives `impulse` in at least 90 % of the trials (stops as soon as
+  // too many have fallen).
   bool Survives(double impulse, const std::string& direction) {
-    const int budget = trials() / 10;
-    int run = 0;
-    double return_sum = 0;
-    return Falls(impulse, direction, budget, &run, &return_sum) <= budget;
+    int falls = 0;
+    for (int t = 0; t < trials() && Survived(falls, trials()); ++t) {
+      falls += Trial(t, impulse / push_seconds_, direction) ? 1 : 0;
+    }
+    return Survived(falls, trials());
   }
 
  private:
@@ -88,36 +97,25 @@ class PushTrials {
     return env;
   }
 
-  // Runs the trials in order until more than `fall_budget` have fallen; the falls, the trials
-  // run and the sum of their normalised returns.
-  int Falls(double impulse, const std::string& direction, int fall_budget, int* run,
-            double* return_sum) {
+  // Trial t with a push of `force` newtons toward `direction`: whether the character fell.
+  bool Trial(int t, double force, const std::string& direction) {
     sim::ImitationEnv& e = worker_.environment(0);
-    const double force = impulse / push_seconds_;
-    int falls = 0;
-    *run = 0;
-    *return_sum = 0;
-    for (int t = 0; t < trials() && falls <= fall_budget; ++t, ++*run) {
-      worker_.ResetFirst(phases_[t]);
-      bool ended = false;
-      for (int s = 0; s < settle_ + pushing_ + observe_ && !ended; ++s) {
-        if (s == settle_) {
-          double angle = angles_[t];
-          if (direction != "random") {
-            const double* q = e.data().xquat + 4 * e.character().root_body();
-            angle = kHeadingAngle.at(direction) + sim::YawOf({q[0], q[1], q[2], q[3]});
-          }
-          e.SetExternalForce(body_, {force * std::cos(angle), force * std::sin(angle), 0});
+    worker_.ResetFirst(phases_[t]);
+    bool ended = false;
+    for (int s = 0; s < settle_ + pushing_ + observe_ && !ended; ++s) {
+      if (s == settle_) {
+        double angle = angles_[t];
+        if (direction != "random") {
+          const double* q = e.data().xquat + 4 * e.character().root_body();
+          angle = kHeadingAngle.at(direction) + sim::YawOf({q[0], q[1], q[2], q[3]});
         }
-        if (s == settle_ + pushing_) e.SetExternalForce(body_, {0, 0, 0});
-        const sim::StepResult step = worker_.StepFirst(true);
-        ended = step.terminated || step.truncated;
+        e.SetExternalForce(body_, {force * std::cos(angle), force * std::sin(angle), 0});
       }
-      falls += e.episode().fell() ? 1 : 0;
-      *return_sum += e.episode().episode_return /
-                     (e.spec().max_reward_per_step * std::max(e.episode().length, 1));
+      if (s == settle_ + pushing_) e.SetExternalForce(body_, {0, 0, 0});
+      const sim::StepResult step = worker_.StepFirst(true);
+      ended = step.terminated || step.truncated;
     }
-    return falls;
+    return e.episode().fell();
   }
 
   RolloutWorker worker_;
@@ -139,8 +137,9 @@ RobustnessResult EvaluatePushes(const sim::EnvConfig& env, const v1::PolicySnaps
   result.config = push;
   bool all_survived_so_far = true;
   for (double impulse : push.impulses) {
-    PushResult r = trials.Run(impulse, push.direction);
-    if (all_survived_so_far && r.fall_rate <= 0.1 + 1e-9) {
+    int falls = 0;
+    PushResult r = trials.Run(impulse, push.direction, &falls);
+    if (all_survived_so_far && Survived(falls, trials.trials())) {
       result.survived_90 = impulse;
     } else {
       all_survived_so_far = false;

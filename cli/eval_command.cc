@@ -147,7 +147,8 @@ std::function<int()> AddEvalCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--recovery", o->recovery.trials,
                   "also drop the character into N random settled falls (front, back, sides) and "
-                  "report the share standing within 5 s and 10 s and the median time");
+                  "report the share standing within 5 s and 10 s and the median time")
+      ->check(CLI::Range(0, 100000));
   cmd->add_option("--recovery-seconds", o->recovery.seconds, "watched per recovery trial, s")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
