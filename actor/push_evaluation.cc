@@ -113,7 +113,8 @@ class PushTrials {
       }
       if (s == settle_ + pushing_) e.SetExternalForce(body_, {0, 0, 0});
       const sim::StepResult step = worker_.StepFirst(true);
-      ended = step.terminated || step.truncated;
+      // A policy that gets up (EnvConfig::recovery) fell without the episode ending.
+      ended = step.terminated || step.truncated || e.episode().fell();
     }
     return e.episode().fell();
   }

@@ -30,6 +30,9 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   p.experiment = ReadExperiment((run / "config.yaml").string());
   // Evaluation, play and export run the policy unpushed; their pushes are their own.
   p.experiment.environment.perturbations = {};
+  // They start standing too; a fall still becomes a get-up.
+  p.experiment.environment.recovery.start_fallen = 0;
+  p.experiment.environment.recovery.start_getting_up = 0;
   const sim::EnvSpec spec = sim::MakeEnvSpec(p.experiment.environment);
   learner::Learner l(p.experiment.trainer, spec.observation_size, spec.action_size);
   l.Load(p.checkpoint);

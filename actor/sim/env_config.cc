@@ -132,6 +132,22 @@ void ReadPerturbations(const ConfigSection& parent, PerturbationConfig* c) {
   s.Finish();
 }
 
+void ReadRecovery(const ConfigSection& parent, RecoveryConfig* c) {
+  if (!parent.Has("recovery")) return;
+  ConfigSection s = parent.Section("recovery");
+  c->face_down = s.GetPath("face_down", "");
+  c->face_up = s.GetPath("face_up", "");
+  if (c->face_down.empty()) s.Fail("face_down", "required: the get-up clip from lying face down");
+  if (c->face_up.empty()) s.Fail("face_up", "required: the get-up clip from lying face up");
+  c->start_fallen = NonNegative(s, "start_fallen", c->start_fallen);
+  c->start_getting_up = NonNegative(s, "start_getting_up", c->start_getting_up);
+  if (c->start_fallen + c->start_getting_up > 1) {
+    s.Fail("start_getting_up", "start_fallen + start_getting_up must be at most 1");
+  }
+  c->get_up_reward_scale = NonNegative(s, "get_up_reward_scale", c->get_up_reward_scale);
+  if (c->get_up_reward_scale > 1) s.Fail("get_up_reward_scale", "must be in [0, 1]");
+  s.Finish();
+}
 }  // namespace
 
 EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_character) {
@@ -186,6 +202,7 @@ EnvConfig ReadEnvConfig(const ConfigSection& s, const std::string& default_chara
   }
 
   ReadPerturbations(s, &c.perturbations);
+  ReadRecovery(s, &c.recovery);
 
   ConfigSection weights = s.Section("joint_weights");
   for (auto& [name, w] : c.joint_weights) w = NonNegative(weights, name, w);

@@ -89,6 +89,20 @@ struct PerturbationConfig {
   bool enabled() const { return !bodies.empty(); }
 };
 
+// Falling and getting up (the `recovery:` section): a fall no longer ends an episode. When the
+// state shows one (a body the base clips keep off the floor touches it), the reference becomes
+// the get-up clip for how the character lies, entered at its closest key frame; once that clip
+// has played and the character stands, the reference hands back to the base clip. Episodes also
+// start fallen (a settled, simulated fall) or at a random frame of a get-up clip.
+struct RecoveryConfig {
+  std::string face_down, face_up;  // get-up clips (DeepMimic's getup_facedown / getup_faceup)
+  double start_fallen = 0.25;      // share of episodes that start from a settled fall
+  double start_getting_up = 0.25;  // share that start at a random time of a get-up clip
+  // The imitation reward while getting up counts this much, so that falling costs.
+  double get_up_reward_scale = 0.5;
+  bool enabled() const { return !face_down.empty(); }
+};
+
 struct EnvConfig {
   std::string character;          // MJCF file
   std::string motion;             // reference clip (project format or DeepMimic motion file)
@@ -117,6 +131,7 @@ struct EnvConfig {
   RewardConfig reward;
   SteeringConfig steering;
   PerturbationConfig perturbations;
+  RecoveryConfig recovery;
 
   double control_dt() const { return 1.0 / control_frequency; }
   double physics_dt() const { return 1.0 / (control_frequency * substeps); }

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "actor/sim/observation.h"
+#include "actor/sim/recovery_task.h"
 #include "actor/sim/steering_task.h"
 #include "common/config_section.h"
 
@@ -65,8 +66,10 @@ EnvSpec SpecWithTask(const EnvConfig& config, const Character& character, const 
 }  // namespace
 
 std::unique_ptr<Task> MakeTask(const EnvConfig& config) {
-  if (config.steering.enabled()) return std::make_unique<SteeringTask>(config);
-  return std::make_unique<Task>();
+  std::unique_ptr<Task> task =
+      config.steering.enabled() ? std::make_unique<SteeringTask>(config) : std::make_unique<Task>();
+  if (config.recovery.enabled()) return std::make_unique<RecoveryTask>(config, std::move(task));
+  return task;
 }
 
 EnvSpec MakeEnvSpec(const EnvConfig& config) {
@@ -181,7 +184,12 @@ void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const
 void ImitationEnv::SyncReference(double time) {
   const double* root = data_->qpos;
   std::vector<double> qpos(character_->model()->nq);
-  if (const std::optional<double> heading = task_->reference_heading()) {
+  if (motions_->entry(reference_entry_).get_up) {
+    // A get-up clip turns to the character however the config syncs: lying, by the body's yaw.
+    ReferenceState(time, qpos.data(), qvel_scratch_.data());
+    reference_yaw_ += WrapAngle(BodyYawOf({root[3], root[4], root[5], root[6]}) -
+                                BodyYawOf({qpos[3], qpos[4], qpos[5], qpos[6]}));
+  } else if (const std::optional<double> heading = task_->reference_heading()) {
     ReferenceState(time, qpos.data(), qvel_scratch_.data());
     reference_yaw_ += WrapAngle(*heading - Yaw(qpos.data() + 3));
   } else if (config_.reference_sync == ReferenceSync::kPositionAndHeading) {
@@ -263,8 +271,12 @@ Vec3 ImitationEnv::CentreOfMass() const { return CentreOfMassOf(*character_, *da
 void ImitationEnv::SwitchReference(int entry) {
   const MotionClip& clip = *motions_->entry(entry).clip;
   // The key frame whose pose is closest to the character's (weighted joint rotation error, as
-  // the reward's rotation term); a transition is entered in its first half only.
-  const int last = clip.loop() ? clip.num_frames() - 1 : std::max(1, clip.num_frames() / 2);
+  // the reward's rotation term); a transition is entered in its first half only, a get-up before
+  // its last tenth.
+  const int n = clip.num_frames();
+  const int last = clip.loop()                     ? n - 1
+                   : motions_->entry(entry).get_up ? std::max(1, n * 9 / 10)
+                                                   : std::max(1, n / 2);
   double weight_sum = 0;
   for (double w : joint_weights_) weight_sum += w;
   int best = 0;
@@ -381,6 +393,7 @@ bool ImitationEnv::Diverged() const {
 }
 
 EpisodeEnd ImitationEnv::CheckTermination() const {
+  if (!task_->falls_end_episode()) return EpisodeEnd::kRunning;
   const mjModel* m = character_->model();
   const mjData* d = data_.get();
   for (int i = 0; i < d->ncon; ++i) {
@@ -406,6 +419,7 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   mjData* ref = ref_data_.get();
   const double next_time = time_ + config_.control_dt();
   ReferenceState(next_time, ref->qpos, ref->qvel);
+  const int falls_before = task_->falls();
 
   const auto& hinges = character_->hinges();
   for (size_t i = 0; i < hinges.size(); ++i) {
@@ -459,9 +473,10 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     mj_forward(m, d);
   } else {
     result.terms = Score();
+    const double imitation = result.terms.total;
     result.terms.task = task_->Reward(*this, sim_features_);
     result.terms.total += result.terms.task;
-    result.reward = result.terms.total;
+    result.reward = task_->imitation_scale() * imitation + result.terms.task;
     EpisodeEnd end = CheckTermination();
     if (end != EpisodeEnd::kRunning) {
       episode_.end = end;
@@ -474,6 +489,7 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     }
   }
 
+  episode_.task_falls = task_->falls();
   episode_.episode_return += result.reward;
   term_sums_.rotation += result.terms.rotation;
   term_sums_.velocity += result.terms.velocity;
@@ -495,7 +511,7 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   if (spec_.reward_terms > kImitationTermCount) *figures++ = mean.task;
   task_->Figures(n, figures);
   if (perturbations_) {
-    perturbations_->AfterStep(result.terminated || result.truncated, episode_.fell());
+    perturbations_->AfterStep(episode_.ended_in_fall() || task_->falls() > falls_before);
     episode_.figures.back() = perturbations_->level();
   }
   episode_.normalized_return =

@@ -69,9 +69,13 @@ struct EpisodeStats {
   RewardTerms mean_terms;       // per-step mean of each term
   std::vector<double> figures;  // per-step means, as EnvSpec::figure_names names them
   EpisodeEnd end = EpisodeEnd::kRunning;
-  bool fell() const {
+  int task_falls = 0;  // falls a task that gets up saw (Task::falls); the episode went on
+  // Whether it ended in a failure state.
+  bool ended_in_fall() const {
     return end == EpisodeEnd::kFell || end == EpisodeEnd::kStrayed || end == EpisodeEnd::kUnstable;
   }
+  // Whether the character fell at all: ending the episode, or to get up again.
+  bool fell() const { return ended_in_fall() || task_falls > 0; }
 };
 
 class ImitationEnv final : public TaskHost {
@@ -111,7 +115,7 @@ class ImitationEnv final : public TaskHost {
   // physics step until changed; a reset clears it. For perturbation trials.
   void SetExternalForce(int body, const Vec3& force);
   // Replaces the simulated state (for tests and perturbation tools); keeps the episode going.
-  void SetState(const double* qpos, const double* qvel);
+  void SetState(const double* qpos, const double* qvel) override;
   const mjData& data() const override { return *data_; }
   const Character& character() const override { return *character_; }
   // The clip imitated now (steering: the current command's clip, or a transition).

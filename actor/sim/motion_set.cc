@@ -15,6 +15,23 @@ namespace {
 // Reflection in the x-z plane (y -> -y) of a rotation: the axis's x and z flip, the angle stays.
 Quat Reflect(const Quat& q) { return {q[0], -q[1], q[2], -q[3]}; }
 
+void AddGetUpClips(const RecoveryConfig& recovery, std::vector<MotionSetEntry>* entries) {
+  if (!recovery.enabled()) return;
+  for (const auto& [name, file] :
+       {std::pair<std::string, std::string>{"get_up_face_down", recovery.face_down},
+        {"get_up_face_up", recovery.face_up}}) {
+    MotionSetEntry e;
+    e.name = name;
+    e.clip = std::make_shared<const MotionClip>(LoadMotion(file));
+    if (e.clip->loop()) {
+      throw ConfigError(file + ": get-up clip '" + name +
+                        "' loops; a get-up plays once and hands back (\"loop\": false)");
+    }
+    e.get_up = true;
+    entries->push_back(std::move(e));
+  }
+}
+
 }  // namespace
 
 MotionSet::MotionSet(std::vector<MotionSetEntry> entries) : entries_(std::move(entries)) {
@@ -26,7 +43,7 @@ MotionSet::MotionSet(std::vector<MotionSetEntry> entries) : entries_(std::move(e
           entries_[e.to].transition()) {
         throw std::invalid_argument("transition '" + e.name + "' does not lead between clips");
       }
-    } else {
+    } else if (!e.get_up) {
       commands_.push_back(i);
     }
   }
@@ -122,6 +139,7 @@ MotionClip Mirror(const MotionClip& clip, const Character& character, const std:
 std::vector<std::string> GroundContacts(const MotionSet& motions, const Character& character) {
   std::vector<std::string> all;
   for (const MotionSetEntry& e : motions.entries()) {
+    if (e.get_up) continue;
     for (const std::string& b : ClipGroundContacts(*e.clip, character)) {
       if (std::find(all.begin(), all.end(), b) == all.end()) all.push_back(b);
     }
@@ -142,6 +160,7 @@ std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config,
   if (!config.steering.enabled()) {
     auto clip = std::make_shared<const MotionClip>(LoadMotion(config.motion));
     entries.push_back({clip->name(), clip, MeasureCommand(*clip)});
+    AddGetUpClips(config.recovery, &entries);
     return std::make_shared<const MotionSet>(std::move(entries));
   }
   const auto& items = config.steering.motions;
@@ -166,6 +185,7 @@ std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config,
     }
     entries[i].command = entries[entries[i].to].command;
   }
+  AddGetUpClips(config.recovery, &entries);
   return std::make_shared<const MotionSet>(std::move(entries));
 }
 

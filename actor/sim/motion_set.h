@@ -18,6 +18,8 @@ struct MotionSetEntry {
   Command command;  // a transition's is its `to` entry's
   int from = -1;    // a transition: the entries it leads between; -1 otherwise
   int to = -1;
+  // A get-up clip (EnvConfig::recovery): played after a fall, never named by a command.
+  bool get_up = false;
   bool transition() const { return to >= 0; }
 };
 
@@ -29,7 +31,7 @@ class MotionSet {
   const std::vector<MotionSetEntry>& entries() const { return entries_; }
   const MotionSetEntry& entry(int i) const { return entries_[i]; }
   int size() const { return static_cast<int>(entries_.size()); }
-  // The entries a command can name (every one that is not a transition), in set order.
+  // The entries a command can name (neither a transition nor a get-up clip), in set order.
   const std::vector<int>& commands() const { return commands_; }
   // The entry called `name`, or -1.
   int Find(const std::string& name) const;
@@ -51,7 +53,8 @@ Command MeasureCommand(const MotionClip& clip);
 // mirrored rotation of its left_* twin and the other way round. Walking left from walking right.
 MotionClip Mirror(const MotionClip& clip, const Character& character, const std::string& name);
 
-// Every body some clip of the set puts on the floor (ClipGroundContacts), feet included.
+// Every body some clip of the set other than a get-up clip puts on the floor (ClipGroundContacts),
+// feet included.
 std::vector<std::string> GroundContacts(const MotionSet& motions, const Character& character);
 // `allowed_contacts: auto` resolved once: fills config->allowed_contacts with GroundContacts
 // unless the config gives its own list or it is already filled (so a process resolves it once
@@ -60,7 +63,8 @@ void ResolveAllowedContacts(const MotionSet& motions, const Character& character
                             EnvConfig* config);
 
 // Loads, mirrors and measures every clip of `steering` (ConfigError naming the file when one
-// does not load). The set of a config without steering is its one clip, command measured.
+// does not load). The set of a config without steering is its one clip, command measured. With
+// `recovery`, the two get-up clips follow, named "get_up_face_down" and "get_up_face_up".
 std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config, const Character& character);
 
 }  // namespace ragdoll::sim

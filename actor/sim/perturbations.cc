@@ -62,9 +62,9 @@ void Perturbations::BeforeStep(mjData* d) {
                                             control_dt_);
 }
 
-void Perturbations::AfterStep(bool ended, bool fell) {
+void Perturbations::AfterStep(bool fell) {
   if (judge_steps_left_ == 0) return;
-  if (ended && fell) {
+  if (fell) {
     Judge(false);
   } else if (--judge_steps_left_ == 0) {
     Judge(true);

@@ -29,8 +29,9 @@ class Perturbations {
   void Reset();
   // Before a control step's physics: starts, holds or ends a push (d->xfrc_applied).
   void BeforeStep(mjData* d);
-  // After it: whether the step ended the episode, and in a fall.
-  void AfterStep(bool ended, bool fell);
+  // After it: whether the character fell in it (ending the episode, or seen by a task that gets
+  // up).
+  void AfterStep(bool fell);
 
   double level() const { return level_; }
   int pushes() const { return pushes_; }

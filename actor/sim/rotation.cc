@@ -105,6 +105,12 @@ double YawOf(const Quat& rotation) {
   return std::atan2(forward[1], forward[0]);
 }
 
+double BodyYawOf(const Quat& rotation) {
+  const Vec3 forward = Rotate(rotation, {1, 0, 0});
+  const Vec3 up = Rotate(rotation, {0, 0, 1});
+  return std::atan2(forward[1] + up[1], forward[0] + up[0]);
+}
+
 double WrapAngle(double radians) { return std::remainder(radians, 2 * M_PI); }
 
 Quat HeadingOf(const Quat& rotation) { return AxisAngle({0, 0, 1}, YawOf(rotation)); }

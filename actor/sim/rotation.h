@@ -43,6 +43,10 @@ void DecomposeHinges(const HingeAxes& axes, const Quat& rotation, double* q);
 // observations are expressed, so that a policy is invariant to where the character faces.
 Quat HeadingOf(const Quat& rotation);
 double YawOf(const Quat& rotation);
+// The yaw of the rotated forward (+x) and up (+z) axes' sum: where an upright body faces and
+// where a lying one's head points, well defined in both (YawOf is not for a body lying face down
+// or up, whose forward axis is near vertical).
+double BodyYawOf(const Quat& rotation);
 // An angle wrapped to [-pi, pi].
 double WrapAngle(double radians);
 

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "actor/sim/imitation_env.h"
+#include "actor/sim/recovery_task.h"
 
 namespace ragdoll::sim {
 
@@ -32,7 +33,9 @@ std::vector<std::string> SteeringTask::ObservationNames() const {
 }
 
 void SteeringTask::Check(const MotionSet& set) const {
-  if (set.size() != static_cast<int>(config_.motions.size())) {
+  const auto get_up = std::count_if(set.entries().begin(), set.entries().end(),
+                                    [](const MotionSetEntry& e) { return e.get_up; });
+  if (set.size() - get_up != static_cast<int>(config_.motions.size())) {
     throw std::invalid_argument("the motion set does not match the config's steering.motions");
   }
 }
@@ -45,7 +48,8 @@ void SteeringTask::WriteObservation(const TaskHost& env, float* out) const {
   *out++ = static_cast<float>(command_.turn);
   *out++ = static_cast<float>(s);
   *out++ = static_cast<float>(c);
-  const int entries = env.motion_set().size();
+  // The get-up clips (EnvConfig::recovery) follow the steering clips and are not among these.
+  const int entries = static_cast<int>(config_.motions.size());
   for (int i = 0; i < entries; ++i) *out++ = i == env.reference_entry() ? 1.0f : 0.0f;
 }
 
@@ -58,7 +62,7 @@ void SteeringTask::ChooseEpisode(const TaskHost& env, std::mt19937_64& rng) {
   if (random_commands_) command_entry_ = RandomCommand(env.motion_set(), rng);
 }
 
-void SteeringTask::Start(const TaskHost& env, std::mt19937_64& rng) {
+void SteeringTask::Start(TaskHost& env, std::mt19937_64& rng) {
   command_ = env.motion_set().entry(command_entry_).command;
   error_sums_[0] = error_sums_[1] = 0;
   episode_time_ = 0;
@@ -129,6 +133,8 @@ bool SteeringTask::ChangeCommand(TaskHost& env, int entry) {
   const int transition = set.Transition(command_entry_, entry);
   command_entry_ = entry;
   command_ = set.entry(entry).command;
+  // While a get-up plays (RecoveryTask), the command waits: the get-up hands back to its clip.
+  if (set.entry(env.reference_entry()).get_up) return true;
   // A transition leads away only from its `from` clip itself, not from another transition.
   env.SwitchReference(
       transition >= 0 && env.reference_entry() == set.entry(transition).from ? transition : entry);
@@ -152,14 +158,28 @@ bool SteeringTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   return false;
 }
 
+namespace {
+
+// The steering task itself, or the one a recovery task is on top of.
+Task& Unwrapped(Task& task) {
+  auto* recovery = dynamic_cast<RecoveryTask*>(&task);
+  return recovery != nullptr ? recovery->inner() : task;
+}
+const Task& Unwrapped(const Task& task) {
+  const auto* recovery = dynamic_cast<const RecoveryTask*>(&task);
+  return recovery != nullptr ? recovery->inner() : task;
+}
+
+}  // namespace
+
 SteeringTask& Steering(ImitationEnv& env) {
-  auto* steering = dynamic_cast<SteeringTask*>(&env.task());
+  auto* steering = dynamic_cast<SteeringTask*>(&Unwrapped(env.task()));
   if (steering == nullptr) throw std::logic_error("the environment has no steering task");
   return *steering;
 }
 
 const SteeringTask& Steering(const ImitationEnv& env) {
-  auto* steering = dynamic_cast<const SteeringTask*>(&env.task());
+  auto* steering = dynamic_cast<const SteeringTask*>(&Unwrapped(env.task()));
   if (steering == nullptr) throw std::logic_error("the environment has no steering task");
   return *steering;
 }

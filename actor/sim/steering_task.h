@@ -36,7 +36,7 @@ class SteeringTask final : public Task {
   // The episode starts in the command's own clip.
   int StartEntry(const MotionSet& /*set*/) const override { return command_entry_; }
   bool ends_with_clip() const override { return false; }
-  void Start(const TaskHost& env, std::mt19937_64& rng) override;
+  void Start(TaskHost& env, std::mt19937_64& rng) override;
   // Turns the desired heading; ends a transition that has played, or changes the command when
   // its time has come.
   bool Advance(TaskHost& env, std::mt19937_64& rng) override;

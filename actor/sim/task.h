@@ -17,8 +17,8 @@
 
 namespace ragdoll::sim {
 
-// What a task may read of the environment and the one thing it may change: which clip of the
-// motion set is imitated.
+// What a task may read of the environment and the two things it may change: which clip of the
+// motion set is imitated, and the state an episode starts in.
 class TaskHost {
  public:
   virtual const Character& character() const = 0;
@@ -28,6 +28,8 @@ class TaskHost {
   virtual double heading() const = 0;
   virtual Vec3 CentreOfMass() const = 0;
   virtual const MotionSet& motion_set() const = 0;
+  // Replaces the simulated state (a task that starts its episodes fallen).
+  virtual void SetState(const double* qpos, const double* qvel) = 0;
   // The motion-set entry imitated now, its clip and the time in it, s.
   virtual int reference_entry() const = 0;
   virtual const MotionClip& clip() const = 0;
@@ -77,11 +79,18 @@ class Task {
   // clips runs to the time limit).
   virtual bool ends_with_clip() const { return true; }
   // Called once the episode's first state is set, before its first observation.
-  virtual void Start(const TaskHost& /*env*/, std::mt19937_64& /*rng*/) {}
+  virtual void Start(TaskHost& /*env*/, std::mt19937_64& /*rng*/) {}
 
   // After the physics of a step, with the clip time advanced. True when it decided the reference
   // itself this step (the environment then leaves it where the task put it).
   virtual bool Advance(TaskHost& /*env*/, std::mt19937_64& /*rng*/) { return false; }
+  // Whether a body outside allowed_contacts touching the ground, or the root straying from the
+  // reference, ends the episode (DeepMimic's early termination); a task that gets up does not.
+  virtual bool falls_end_episode() const { return true; }
+  // Falls seen this episode by a task that keeps episodes going through them.
+  virtual int falls() const { return 0; }
+  // How much the imitation reward counts this step (getting up counts less, so falling costs).
+  virtual double imitation_scale() const { return 1.0; }
   // The yaw the reference faces whenever it is placed on the character; none: the config's
   // reference_sync decides.
   virtual std::optional<double> reference_heading() const { return std::nullopt; }

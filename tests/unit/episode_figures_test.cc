@@ -26,7 +26,7 @@ class RootHeightTask final : public sim::Task {
  public:
   std::string name() const override { return "balance"; }
   std::vector<sim::FigureSpec> FigureSpecs() const override { return {{"root_height", "m"}}; }
-  void Start(const sim::TaskHost& /*env*/, std::mt19937_64& /*rng*/) override { sum_ = 0; }
+  void Start(sim::TaskHost& /*env*/, std::mt19937_64& /*rng*/) override { sum_ = 0; }
   double Reward(const sim::TaskHost& env, const sim::PoseFeatures& /*character*/) override {
     sum_ += env.data().qpos[2];
     return 0;

@@ -57,7 +57,7 @@ TEST_F(PerturbationsTest, PushesForTheirDurationAtTheirIntervalWithinTheLevel) {
       EXPECT_GE(impulse, 10 - 1e-9);
       EXPECT_LE(impulse, 20 + 1e-9);
     }
-    p.AfterStep(false, false);
+    p.AfterStep(false);
   }
   EXPECT_EQ(pushed_steps, (std::vector<int>{30, 31, 32, 63, 64, 65}));
   EXPECT_EQ(p.pushes(), 2);
@@ -72,9 +72,9 @@ TEST_F(PerturbationsTest, TheLevelFollowsTheCharacterWithinStartAndMax) {
   auto push_and_wait = [&](bool fall) {
     for (int before = p.pushes(); p.pushes() == before;) {
       p.BeforeStep(data_.get());
-      if (p.pushes() == before) p.AfterStep(false, false);
+      if (p.pushes() == before) p.AfterStep(false);
     }
-    p.AfterStep(fall, fall);
+    p.AfterStep(fall);
     if (fall) p.Reset();
   };
   EXPECT_EQ(p.level(), 20);

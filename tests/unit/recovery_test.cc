@@ -1,0 +1,240 @@
+// Falling and getting up (EnvConfig::recovery, RecoveryTask): the config, the motion set with the
+// get-up clips, a fall seen in the state switching the reference, the reward while getting up,
+// the hand-back to the walk, and the episodes that start fallen or part-way up.
+#include "actor/sim/recovery_task.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+#include "actor/sim/falls.h"
+#include "actor/sim/imitation_env.h"
+#include "actor/sim/motion_io.h"
+#include "actor/sim/observation.h"
+#include "actor/sim/steering_task.h"
+#include "common/config_section.h"
+
+namespace ragdoll::sim {
+namespace {
+
+const std::string kAssets = RAGDOLL_ASSETS_DIR;
+const std::string kFaceDown = kAssets + "/motions/deepmimic/humanoid3d_getup_facedown.txt";
+const std::string kFaceUp = kAssets + "/motions/deepmimic/humanoid3d_getup_faceup.txt";
+
+EnvConfig Read(const std::string& yaml) {
+  ConfigSection root = ConfigSection::FromString(yaml, "recovery.yaml");
+  return ReadEnvConfig(root.Section("environment"), kAssets + "/character/humanoid.xml");
+}
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    Read(yaml);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
+  const std::string head =
+      "environment:\n  motion: motions/walk.json\n  recovery:\n"
+      "    face_down: motions/deepmimic/humanoid3d_getup_facedown.txt\n";
+  EnvConfig c = Read(head +
+                     "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n"
+                     "    start_fallen: 0.4\n    start_getting_up: 0.1\n"
+                     "    get_up_reward_scale: 0.3\n");
+  EXPECT_TRUE(c.recovery.enabled());
+  EXPECT_EQ(c.recovery.face_down, "motions/deepmimic/humanoid3d_getup_facedown.txt");
+  EXPECT_EQ(c.recovery.face_up, "motions/deepmimic/humanoid3d_getup_faceup.txt");
+  EXPECT_DOUBLE_EQ(c.recovery.start_fallen, 0.4);
+  EXPECT_DOUBLE_EQ(c.recovery.start_getting_up, 0.1);
+  EXPECT_DOUBLE_EQ(c.recovery.get_up_reward_scale, 0.3);
+  EXPECT_FALSE(Read("environment:\n  motion: motions/walk.json\n").recovery.enabled());
+
+  EXPECT_NE(ErrorOf(head).find("face_up"), std::string::npos);
+  const std::string both = head + "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n";
+  EXPECT_NE(ErrorOf(both + "    start_fallen: 0.7\n    start_getting_up: 0.5\n")
+                .find("start_fallen + start_getting_up"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(both + "    get_up_reward_scale: 2\n").find("get_up_reward_scale"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(both + "    start_falen: 0.2\n").find("start_falen"), std::string::npos);
+}
+
+class RecoveryEnvTest : public ::testing::Test {
+ protected:
+  RecoveryEnvTest() {
+    config_.character = kAssets + "/character/humanoid.xml";
+    config_.motion = kAssets + "/motions/walk.json";
+    config_.action_mode = ActionMode::kOffset;
+    config_.substeps = 10;
+    config_.max_episode_steps = 600;
+    config_.recovery.face_down = kFaceDown;
+    config_.recovery.face_up = kFaceUp;
+    config_.recovery.start_fallen = 0;
+    config_.recovery.start_getting_up = 0;
+    character_ = Character::Load(config_.character, config_.physics_dt());
+  }
+  std::unique_ptr<ImitationEnv> Make(uint64_t seed = 1) {
+    return std::make_unique<ImitationEnv>(character_, LoadMotionSet(config_, *character_), config_,
+                                          seed);
+  }
+  const RecoveryTask& Recovery(const ImitationEnv& env) {
+    return dynamic_cast<const RecoveryTask&>(env.task());
+  }
+  // The index of a figure of the environment's spec.
+  static int Figure(const ImitationEnv& env, const std::string& name) {
+    const auto& names = env.spec().figure_names;
+    return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
+  }
+  EnvConfig config_;
+  std::shared_ptr<const Character> character_;
+};
+
+// The get-up clips follow the base clip in the set; no command names them and their contacts
+// (hands, knees, back) are not among the ones a walk may make.
+TEST_F(RecoveryEnvTest, TheGetUpClipsJoinTheMotionSetButNotItsCommandsOrContacts) {
+  auto set = LoadMotionSet(config_, *character_);
+  ASSERT_EQ(set->size(), 3);
+  EXPECT_EQ(set->Find("get_up_face_down"), 1);
+  EXPECT_EQ(set->Find("get_up_face_up"), 2);
+  EXPECT_TRUE(set->entry(1).get_up && set->entry(2).get_up && !set->entry(0).get_up);
+  EXPECT_EQ(set->commands(), std::vector<int>{0});
+  EXPECT_EQ(GroundContacts(*set, *character_),
+            GroundContacts(MotionSet({set->entry(0)}), *character_));
+
+  auto env = Make();
+  EXPECT_EQ(env->spec().observation_size, ObservationSize(*character_) + 2);
+  EXPECT_EQ(env->spec().observation_names.back(), "recovery.face_up");
+  EXPECT_EQ(env->spec().figure_names.back(), "getting_up");
+}
+
+// Laid on its front, the character is seen to have fallen: the episode goes on, the reference
+// becomes the face-down get-up turned onto the character, the observation says so, the fall is
+// counted, and the imitation reward counts get_up_reward_scale of itself.
+TEST_F(RecoveryEnvTest, AFallSwitchesToTheGetUpForHowTheCharacterLies) {
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  EXPECT_EQ(obs[obs.size() - 2], 0.0f);
+  EXPECT_EQ(obs[obs.size() - 1], 0.0f);
+
+  std::mt19937_64 rng(5);
+  FallenState fallen;
+  do {
+    fallen = SettledFall(*character_, env->clip(), rng);
+  } while (fallen.posture != Posture::kFaceDown);
+  env->SetState(fallen.qpos.data(), fallen.qvel.data());
+  const StepResult step = env->Step(action.data(), obs.data());
+  EXPECT_FALSE(step.terminated || step.truncated);
+  EXPECT_EQ(env->reference_entry(), env->motion_set().Find("get_up_face_down"));
+  EXPECT_TRUE(Recovery(*env).recovering());
+  EXPECT_EQ(obs[obs.size() - 2], 1.0f);
+  EXPECT_EQ(obs[obs.size() - 1], 0.0f);
+  EXPECT_DOUBLE_EQ(step.reward, config_.recovery.get_up_reward_scale * step.terms.total);
+  EXPECT_EQ(env->episode().figures[Figure(*env, "falls")], 1.0);
+
+  // The reference root lies where the character does, its head the same way.
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  env->ReferenceState(env->time(), qpos.data(), qvel.data());
+  const double* q = env->data().qpos;
+  EXPECT_LT(std::hypot(qpos[0] - q[0], qpos[1] - q[1]), 1e-9);
+  EXPECT_LT(std::abs(WrapAngle(BodyYawOf({qpos[3], qpos[4], qpos[5], qpos[6]}) -
+                               BodyYawOf({q[3], q[4], q[5], q[6]}))),
+            1e-9);
+
+  // Held lying through the whole clip, it is sent through the get-up again: still one fall.
+  for (int s = 0; s < 150; ++s) {
+    env->SetState(fallen.qpos.data(), fallen.qvel.data());
+    ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated);
+  }
+  EXPECT_TRUE(Recovery(*env).recovering());
+  EXPECT_EQ(env->episode().figures[Figure(*env, "falls")], 1.0);
+  EXPECT_NEAR(env->episode().figures[Figure(*env, "getting_up")], 150.0 / 151.0, 1e-12);
+}
+
+// A get-up followed exactly (the state set to the reference's at every step) stands at the
+// clip's end, and the reference hands back to the walk.
+TEST_F(RecoveryEnvTest, AGetUpPlayedThroughHandsBackToTheWalk) {
+  config_.recovery.start_getting_up = 1;
+  auto env = Make(3);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  ASSERT_TRUE(env->motion_set().entry(env->reference_entry()).get_up);
+  ASSERT_TRUE(Recovery(*env).recovering());
+  EXPECT_EQ(env->episode().figures[Figure(*env, "falls")], 0.0);  // a start, not a fall
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  int steps = 0;
+  while (Recovery(*env).recovering() && steps < 200) {
+    env->ReferenceState(env->time(), qpos.data(), qvel.data());
+    env->SetState(qpos.data(), qvel.data());
+    ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated);
+    ++steps;
+  }
+  EXPECT_FALSE(Recovery(*env).recovering());
+  EXPECT_EQ(env->reference_entry(), 0);  // the walk
+  EXPECT_EQ(obs[obs.size() - 2] + obs[obs.size() - 1], 0.0f);
+  EXPECT_LE(steps * config_.control_dt(), 3.8 + config_.control_dt());
+}
+
+// An episode that starts fallen lies on the floor, getting up, with no fall counted; the same
+// seed gives the same episode.
+TEST_F(RecoveryEnvTest, EpisodesStartFromSettledFalls) {
+  config_.recovery.start_fallen = 1;
+  auto a = Make(7), b = Make(7);
+  std::vector<float> obs_a(a->spec().observation_size), obs_b(b->spec().observation_size);
+  a->Reset(obs_a.data());
+  b->Reset(obs_b.data());
+  EXPECT_EQ(obs_a, obs_b);
+  EXPECT_TRUE(Recovery(*a).recovering());
+  EXPECT_TRUE(a->motion_set().entry(a->reference_entry()).get_up);
+  EXPECT_LT(a->data().qpos[2], 0.4);
+  EXPECT_NE(PostureOf(*character_, a->data(), 0.7), Posture::kStanding);
+}
+
+// Without recovery, the same fall ends the episode (DeepMimic's early termination).
+TEST_F(RecoveryEnvTest, WithoutRecoveryAFallEndsTheEpisode) {
+  config_.recovery = {};
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  std::mt19937_64 rng(5);
+  const FallenState fallen = SettledFall(*character_, env->clip(), rng);
+  env->SetState(fallen.qpos.data(), fallen.qvel.data());
+  EXPECT_TRUE(env->Step(action.data(), obs.data()).terminated);
+  EXPECT_EQ(env->episode().end, EpisodeEnd::kFell);
+}
+
+// On top of steering: the observation is steering's then the get-up's, and a command given while
+// getting up waits for the hand-back.
+TEST_F(RecoveryEnvTest, SteeringCommandsWaitForTheGetUp) {
+  for (const std::string& m : {kAssets + "/motions/stand.json", kAssets + "/motions/walk.json"}) {
+    MotionSetItem item;
+    item.motion = m;
+    item.name = std::filesystem::path(m).stem().string();
+    config_.steering.motions.push_back(item);
+  }
+  config_.motion = config_.steering.motions.front().motion;
+  auto env = Make();
+  EXPECT_EQ(env->spec().task, "steering");
+  EXPECT_EQ(env->spec().observation_size, ObservationSize(*character_) + 5 + 2 + 2);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  std::mt19937_64 rng(5);
+  const FallenState fallen = SettledFall(*character_, env->clip(), rng);
+  env->SetState(fallen.qpos.data(), fallen.qvel.data());
+  env->Step(action.data(), obs.data());
+  ASSERT_TRUE(Recovery(*env).recovering());
+  const int get_up = env->reference_entry();
+  const int walk = env->motion_set().Find("walk"), stand = env->motion_set().Find("stand");
+  const int other = Steering(*env).command_entry() == walk ? stand : walk;
+  Steering(*env).SetCommand(*env, other);
+  EXPECT_EQ(env->reference_entry(), get_up);
+  EXPECT_EQ(Steering(*env).command_entry(), other);
+}
+
+}  // namespace
+}  // namespace ragdoll::sim
