@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # End to end in containers: builds the images from deploy/Dockerfile (on a Debian base image made
-# here with debootstrap, since no registry is reachable), brings deploy/docker-compose.yml up with
+# here with debootstrap, since no registry is reachable; its runtime stage with the binary of the
+# README's build, or compiled in the image with RAGDOLL_E2E_FROM_SOURCE=1), brings deploy/docker-compose.yml up with
 # Podman and two actors, waits until the learner has published several policy versions and
 # Prometheus holds the reward series, restarts the learner container and checks that it resumed
 # from the checkpoint volume, checks that the broker speaks only CURVE (a plaintext actor and one
@@ -72,10 +73,26 @@ if ! podman image exists localhost/bookworm-base; then
   tar -C "$work/root" -c . | podman import - localhost/bookworm-base > /dev/null
   rm -rf "$work/root"
 fi
-log "building $RAGDOLL_IMAGE from deploy/Dockerfile"
-podman build --network host --build-arg BASE_IMAGE=localhost/bookworm-base \
-  -f "$repo/deploy/Dockerfile" -t "$RAGDOLL_IMAGE" "$repo" > "$work/build.log" 2>&1 ||
-  { tail -n 40 "$work/build.log"; fail "image build"; }
+# The binary the README's build made (build/ragdoll), unless RAGDOLL_E2E_FROM_SOURCE=1 asks for
+# the Dockerfile's own compile (a second build of the project, ~15 min on 2 cores).
+if [ "${RAGDOLL_E2E_FROM_SOURCE:-0}" = 1 ] || [ ! -x "$repo/build/ragdoll" ]; then
+  log "building $RAGDOLL_IMAGE from deploy/Dockerfile, compiled in the image"
+  podman build --network host --build-arg BASE_IMAGE=localhost/bookworm-base \
+    -f "$repo/deploy/Dockerfile" -t "$RAGDOLL_IMAGE" "$repo" > "$work/build.log" 2>&1 ||
+    { tail -n 40 "$work/build.log"; fail "image build"; }
+else
+  log "building $RAGDOLL_IMAGE: deploy/Dockerfile's runtime base with build/ragdoll"
+  mkdir -p "$work/context"
+  strip -o "$work/context/ragdoll" "$repo/build/ragdoll"
+  cp -r "$repo/assets" "$repo/configs" "$work/context/"
+  { podman build --network host --build-arg BASE_IMAGE=localhost/bookworm-base \
+      --target runtime-base -f "$repo/deploy/Dockerfile" -t localhost/ragdoll-runtime-base:e2e \
+      "$work/context" &&
+    podman build --network host --build-arg RUNTIME_BASE=localhost/ragdoll-runtime-base:e2e \
+      --build-arg SOURCE_DIR="$repo" -f "$repo/tests/e2e/prebuilt.Dockerfile" \
+      -t "$RAGDOLL_IMAGE" "$work/context"; } > "$work/build.log" 2>&1 ||
+    { tail -n 40 "$work/build.log"; fail "image build"; }
+fi
 podman build --network host --build-arg BASE_IMAGE=localhost/bookworm-base \
   -f "$repo/tests/e2e/prometheus.Dockerfile" -t "$PROMETHEUS_IMAGE" "$repo/tests/e2e" \
   > "$work/build-prometheus.log" 2>&1 || { tail -n 20 "$work/build-prometheus.log"; fail "prometheus image"; }
