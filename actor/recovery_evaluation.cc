@@ -43,8 +43,7 @@ RecoveryResult EvaluateRecovery(const sim::EnvConfig& env, const v1::PolicySnaps
   RolloutWorker worker(TrialEnvironment(env, *character, steps), 1, 1, seed, "recovery");
   worker.SetPolicy(snapshot);
   sim::ImitationEnv& e = worker.environment(0);
-  // Standing: the root above 0.8 of its height in the clip's first frame.
-  const double stand_height = 0.8 * e.clip().Sample(0).root_position[2];
+  const double stand_height = sim::StandHeight(e.clip());
 
   RecoveryResult result;
   result.config = config;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "actor/rollout.h"
+#include "actor/sim/falls.h"
 #include "cli/onnx_export.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
@@ -105,6 +106,7 @@ json Steering(const sim::EnvConfig& c, const sim::ImitationEnv& env) {
   const sim::MotionSet& set = env.motion_set();
   json clips = json::array();
   for (const sim::MotionSetEntry& e : set.entries()) {
+    if (e.get_up) continue;  // in "recovery"
     json clip = {{"name", e.name},
                  {"duration", e.clip->duration()},
                  {"loop", e.clip->loop()},
@@ -138,6 +140,42 @@ json Steering(const sim::EnvConfig& c, const sim::ImitationEnv& env) {
             {"velocity_scale", c.steering.velocity_scale},
             {"heading_scale", c.steering.heading_scale},
             {"velocity_window", c.steering.velocity_window}}}};
+}
+
+// Falling and getting up: the get-up clips, how a fall is seen, how the reference switches and
+// hands back, and the observation entries that say which get-up plays.
+json Recovery(const sim::EnvConfig& c, const sim::ImitationEnv& env) {
+  const sim::MotionSet& set = env.motion_set();
+  json clips = json::array();
+  for (const sim::MotionSetEntry& e : set.entries()) {
+    if (!e.get_up) continue;
+    const std::string& file =
+        e.name == "get_up_face_down" ? c.recovery.face_down : c.recovery.face_up;
+    clips.push_back({{"name", e.name},
+                     {"file", file},
+                     {"sha256", learner::Sha256Hex(ReadFile(file))},
+                     {"duration", e.clip->duration()},
+                     {"loop", false},
+                     {"hinge_angles", ReferenceAngles(env.character(), *e.clip, c.control_dt())}});
+  }
+  const sim::MotionClip& base = *set.entry(set.commands().front()).clip;
+  return {
+      {"clips", clips},
+      {"may_touch_floor", sim::GroundContacts(set, env.character())},
+      {"stand_height", sim::StandHeight(base)},
+      {"inputs",
+       "the last two observation entries, recovery.face_down and recovery.face_up: 1 for the "
+       "get-up clip whose hinge_angles the actions offset now, else 0 (both 0 while not getting "
+       "up)"},
+      {"switching",
+       "a fall is a contact between the floor and a body not in may_touch_floor; the reference "
+       "then becomes get_up_face_down when the pelvis's forward (+X) axis points below the "
+       "horizontal, else get_up_face_up, entered at the key frame (of its first 90 %) whose joint "
+       "rotations are closest to the character's and turned about the vertical so that the yaw "
+       "of the pelvis's forward plus up axes matches the character's. When the clip has played: "
+       "if the character stands (pelvis up axis within 30 degrees of vertical, pelvis above "
+       "stand_height) the reference returns to the clip it left (with steering, the current "
+       "command's) at its closest key frame; if not, the get-up starts again the same way."}};
 }
 
 json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions& o,
@@ -203,6 +241,7 @@ json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions
         {"duration", env.clip().duration()},
         {"loop", env.clip().loop()}}},
       {"steering", c.steering.enabled() ? Steering(c, env) : json(nullptr)},
+      {"recovery", c.recovery.enabled() ? Recovery(c, env) : json(nullptr)},
       {"control",
        {{"frequency", c.control_frequency},
         {"dt", c.control_dt()},

@@ -3,6 +3,7 @@
 #include <ATen/Parallel.h>
 #include <GLFW/glfw3.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "actor/rollout.h"
+#include "actor/sim/falls.h"
 #include "actor/sim/steering_task.h"
 #include "cli/render/renderer.h"
 #include "cli/trained_policy.h"
@@ -26,8 +28,9 @@ struct PlayOptions {
   std::string target;
   double seconds = 0;  // 0: until the window is closed
   std::string log;
-  double push_force = 150;     // N, horizontal, on the root
+  double push_impulse = 30;    // N s, horizontal, on the root (space; + and - change it)
   double push_duration = 0.2;  // s
+  double knock_impulse = 150;  // N s, horizontal, on the chest (K), over 0.1 s
   double fall_pause = 1.0;     // s the fall stays on screen before the automatic reset
   std::string ghost = "none";
   render::View view;
@@ -35,12 +38,14 @@ struct PlayOptions {
 };
 
 constexpr char kHelp[] =
-    "W A S D / arrows: walk, back, strafe   Q E: turn   space: push   R: reset   Esc: quit";
+    "W A S D / arrows: walk, back, strafe   Q E: turn   space: push   + -: push strength   "
+    "K: knock down   R: reset   Esc: quit";
 
 // The keys held down, and the one-shot keys pressed since they were last taken.
 struct KeyState {
   std::set<int> held;
-  bool push = false, reset = false, quit = false;
+  bool push = false, knock = false, reset = false, quit = false;
+  int stronger = 0;  // presses of + less presses of -
 
   void Handle(int key, bool pressed) {
     if (key == GLFW_KEY_UNKNOWN) return;
@@ -51,6 +56,9 @@ struct KeyState {
     }
     if (!pressed) return;
     push |= key == GLFW_KEY_SPACE;
+    knock |= key == GLFW_KEY_K;
+    stronger += key == GLFW_KEY_EQUAL || key == GLFW_KEY_KP_ADD;
+    stronger -= key == GLFW_KEY_MINUS || key == GLFW_KEY_KP_SUBTRACT;
     reset |= key == GLFW_KEY_R;
     quit |= key == GLFW_KEY_ESCAPE;
   }
@@ -90,7 +98,7 @@ std::unique_ptr<std::FILE, FileCloser> OpenLog(const std::string& path) {
   if (!log) throw ConfigError("play: --log " + path + ": cannot write the file");
   std::fprintf(log.get(),
                "time,wall,episode,command,reference,x,y,heading,desired_heading,vx,vy,"
-               "speed_error,heading_error,fell\n");
+               "speed_error,heading_error,fell,falls,getting_up,standing\n");
   return log;
 }
 
@@ -109,12 +117,15 @@ class PlaySession {
         motions_(e_.motion_set()),
         model_(e_.character().model()),
         root_(e_.character().root_body()),
+        chest_(std::max(root_, mj_name2id(model_, mjOBJ_BODY, "chest"))),
+        stand_height_(sim::StandHeight(*motions_.entry(motions_.commands().front()).clip)),
         log_(OpenLog(o.log)),
         renderer_(model_, o.view, "ragdoll play: " + o.target,
                   [this](int key, bool pressed) { keys_.Handle(key, pressed); }),
         reference_(mj_makeData(model_)),
         reference_qvel_(model_->nv),
-        rng_(o.seed) {
+        rng_(o.seed),
+        push_impulse_(o.push_impulse) {
     worker_.SetPolicy(policy.snapshot);
     command_ = motions_.Nearest(KeyCommand(keys_));
     worker_.SetCommandFirst(command_);
@@ -156,12 +167,16 @@ class PlaySession {
   // Further behind than this, the simulation stops catching up (it runs slower than real time
   // on this machine) rather than stepping in a burst the player would see as a jump.
   static constexpr double kMaxLag = 0.25;
+  // How long a knock-down (K) pushes, s.
+  static constexpr double kKnockSeconds = 0.1;
 
   void Reset() {
     worker_.ResetFirst(uniform_(rng_));
     ++episode_;
     push_ticks_ = 0;
     pause_left_ = 0;
+    task_falls_ = 0;
+    getting_up_ = false;
   }
 
   // One control step: the keys, then the simulation (or the fall still on screen).
@@ -175,7 +190,7 @@ class PlaySession {
       Steer();
       Simulate();
     }
-    keys_.push = false;
+    keys_.push = keys_.knock = false;
     ++ticks_;
     ++window_ticks_;
   }
@@ -187,14 +202,26 @@ class PlaySession {
       command_ = wanted;
       worker_.SetCommandFirst(command_);
     }
-    if (keys_.push) {
-      const double direction = 2 * M_PI * uniform_(rng_);
-      e_.SetExternalForce(
-          root_, {o_.push_force * std::cos(direction), o_.push_force * std::sin(direction), 0});
-      push_angle_ = sim::WrapAngle(direction - e_.heading());
-      push_ticks_ = push_ticks_total_;
-      ++pushes_;
+    push_impulse_ = std::clamp(push_impulse_ + 10.0 * keys_.stronger, 0.0, 500.0);
+    keys_.stronger = 0;
+    if (keys_.push) Push(root_, push_impulse_, push_ticks_total_);
+    if (keys_.knock) {
+      Push(chest_, o_.knock_impulse,
+           std::max(1, static_cast<int>(std::lround(kKnockSeconds / dt_))));
     }
+  }
+
+  // A horizontal push on `body` in a random direction: `impulse` N s spread over `ticks` steps.
+  void Push(int body, double impulse, int ticks) {
+    if (push_ticks_ > 0) e_.SetExternalForce(pushed_body_, {0, 0, 0});
+    const double direction = 2 * M_PI * uniform_(rng_);
+    const double force = impulse / (ticks * dt_);
+    e_.SetExternalForce(body, {force * std::cos(direction), force * std::sin(direction), 0});
+    push_angle_ = sim::WrapAngle(direction - e_.heading());
+    push_shown_ = impulse;
+    pushed_body_ = body;
+    push_ticks_ = ticks;
+    ++pushes_;
   }
 
   // The policy's step, the push's end, the log line, and a fall's pause or a new episode.
@@ -203,7 +230,8 @@ class PlaySession {
     const sim::StepResult r = worker_.StepFirst(true);
     step_seconds_ += SecondsSince(begin);
     ++steps_;
-    if (push_ticks_ > 0 && --push_ticks_ == 0) e_.SetExternalForce(root_, {0, 0, 0});
+    if (push_ticks_ > 0 && --push_ticks_ == 0) e_.SetExternalForce(pushed_body_, {0, 0, 0});
+    FollowRecovery();
     if (log_) LogStep(r);
     if (r.terminated) {
       ++falls_;
@@ -217,14 +245,35 @@ class PlaySession {
     }
   }
 
+  // With recovery (environment.recovery) a fall does not end the episode: the character gets
+  // up. Says when it fell and when it stood again.
+  void FollowRecovery() {
+    const double now = (ticks_ + 1) * dt_;
+    if (e_.episode().task_falls > task_falls_) {
+      task_falls_ = e_.episode().task_falls;
+      ++falls_;
+      fell_at_ = now;
+      std::fprintf(stderr, "play: fell at %.1f s; getting up\n", now);
+    }
+    const bool getting_up = motions_.entry(e_.reference_entry()).get_up;
+    if (getting_up_ && !getting_up) {
+      std::fprintf(stderr, "play: up again at %.1f s, %.1f s after the fall\n", now,
+                   now - fell_at_);
+    }
+    getting_up_ = getting_up;
+  }
+
   void LogStep(const sim::StepResult& r) {
     const sim::Vec3 v = steering_.TravelVelocity();
-    std::fprintf(log_.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n",
-                 (ticks_ + 1) * dt_, SecondsSince(start_), episode_,
-                 motions_.entry(command_).name.c_str(),
-                 motions_.entry(e_.reference_entry()).name.c_str(), e_.data().qpos[0],
-                 e_.data().qpos[1], e_.heading(), steering_.desired_heading(), v[0], v[1],
-                 steering_.SpeedError(), steering_.HeadingError(e_), r.terminated ? 1 : 0);
+    const bool standing =
+        sim::PostureOf(e_.character(), e_.data(), stand_height_) == sim::Posture::kStanding;
+    std::fprintf(
+        log_.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d\n",
+        (ticks_ + 1) * dt_, SecondsSince(start_), episode_, motions_.entry(command_).name.c_str(),
+        motions_.entry(e_.reference_entry()).name.c_str(), e_.data().qpos[0], e_.data().qpos[1],
+        e_.heading(), steering_.desired_heading(), v[0], v[1], steering_.SpeedError(),
+        steering_.HeadingError(e_), r.terminated ? 1 : 0, e_.episode().task_falls,
+        getting_up_ ? 1 : 0, standing ? 1 : 0);
   }
 
   // The heads-up figures, over the last second.
@@ -251,10 +300,15 @@ class PlaySession {
       std::snprintf(text, sizeof(text), "\n%.0f fps, real time x%.2f", fps_, realtime_);
       caption += text;
     }
+    std::snprintf(text, sizeof(text), "\nspace pushes %.0f N s (+ -)", push_impulse_);
+    caption += text;
     if (pause_left_ > 0) {
       caption += "\nfell: restarting";
-    } else if (push_ticks_ > 0) {
-      std::snprintf(text, sizeof(text), "\npush %.0f N at %+.0f deg from facing", o_.push_force,
+    } else if (getting_up_) {
+      caption += "\ngetting up";
+    }
+    if (push_ticks_ > 0) {
+      std::snprintf(text, sizeof(text), "\npushed %.0f N s at %+.0f deg from facing", push_shown_,
                     Degrees(push_angle_));
       caption += text;
     }
@@ -297,7 +351,8 @@ class PlaySession {
   const sim::SteeringTask& steering_;
   const sim::MotionSet& motions_;
   const mjModel* model_;
-  const int root_;
+  const int root_, chest_;
+  const double stand_height_;  // m: standing is the pelvis above it (sim::PostureOf)
   std::unique_ptr<std::FILE, FileCloser> log_;
   KeyState keys_;
   render::Renderer renderer_;
@@ -309,7 +364,13 @@ class PlaySession {
 
   int command_ = 0;
   int episode_ = 0, push_ticks_ = 0, falls_ = 0, pushes_ = 0;
+  double push_impulse_;    // N s of a push (space)
+  double push_shown_ = 0;  // N s of the current push or knock
+  int pushed_body_ = 0;
   double push_angle_ = 0;  // of the current push, from the character's facing, radians
+  int task_falls_ = 0;     // falls the recovery task saw this episode
+  bool getting_up_ = false;
+  double fell_at_ = 0;     // s
   double pause_left_ = 0;  // s of the fall still to show
   int64_t ticks_ = 0, steps_ = 0, frames_ = 0, skipped_ = 0;
   double lost_ = 0;                             // wall seconds the simulation fell behind for good
@@ -346,13 +407,18 @@ std::function<int()> AddPlayCommand(CLI::App& app, const std::atomic<bool>& stop
   cmd->add_option("--log", o->log,
                   "CSV, one line per control step: time, command, reference clip, root x y (m), "
                   "heading and desired heading (rad), travel velocity (m/s), errors, fell");
-  cmd->add_option("--push-force", o->push_force,
-                  "space: a horizontal push on the root in a random direction, N")
+  cmd->add_option("--push-impulse", o->push_impulse,
+                  "space: a horizontal push on the root in a random direction, N s (+ and - "
+                  "change it by 10)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--push-duration", o->push_duration, "how long a push lasts, s")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--knock-impulse", o->knock_impulse,
+                  "K: a hard horizontal push on the chest in a random direction, N s over 0.1 s")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--fall-pause", o->fall_pause, "a fall stays on screen this long, s")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);

@@ -37,6 +37,8 @@ Posture PostureOf(const Character& character, const mjData& d, double stand_heig
   return Posture::kSide;
 }
 
+double StandHeight(const MotionClip& clip) { return 0.8 * clip.Sample(0).root_position[2]; }
+
 FallenState SettledFall(const Character& character, const MotionClip& clip, std::mt19937_64& rng) {
   const mjModel* m = character.model();
   std::uniform_real_distribution<double> unit(0, 1);

@@ -19,6 +19,8 @@ const char* PostureName(Posture posture);
 // is within 30 degrees of upright and the root above `stand_height` (metres); lying when the
 // trunk is within 45 degrees of horizontal, face down or up by where its front points.
 Posture PostureOf(const Character& character, const mjData& d, double stand_height);
+// The stand height recovery is judged by: 0.8 of the root's height in the clip's first frame.
+double StandHeight(const MotionClip& clip);
 
 struct FallenState {
   std::vector<double> qpos, qvel;

@@ -71,7 +71,7 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
       may_touch_ground_[mj_name2id(character.model(), mjOBJ_BODY, body.c_str())] = 1;
     }
     const MotionClip& base = *set.entry(inner_->StartEntry(set)).clip;
-    stand_height_ = 0.8 * base.Sample(0).root_position[2];
+    stand_height_ = StandHeight(base);
   }
   falls_ = 0;
   recovering_steps_ = 0;

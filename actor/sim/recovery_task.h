@@ -22,8 +22,9 @@ class RecoveryTask final : public Task {
   const Task& inner() const { return *inner_; }
   Task& inner() { return *inner_; }
 
-  // The inner task's name (its figures are grouped under it), or "recovery" on imitation alone.
-  std::string name() const override { return inner_->name().empty() ? "recovery" : inner_->name(); }
+  // The inner task's name (its figures are grouped under it), or "get_up" on imitation alone
+  // (the evaluation's "recovery" holds the recovery trials).
+  std::string name() const override { return inner_->name().empty() ? "get_up" : inner_->name(); }
   // The inner task's observation, then which get-up clip is imitated (one-hot: face down, face
   // up; both 0 while not getting up).
   int observation_size() const override { return inner_->observation_size() + 2; }
@@ -60,7 +61,7 @@ class RecoveryTask final : public Task {
   std::unique_ptr<Task> inner_;
   int inner_figures_ = 0;
   std::vector<char> may_touch_ground_;  // per body, from the base clips; filled at the first start
-  double stand_height_ = 0;             // m: 0.8 of the base clip's first root height
+  double stand_height_ = 0;             // m: StandHeight of the base clip
   Beginning start_ = Beginning::kStanding;
   int start_entry_ = -1;   // the get-up clip an episode starts in (kGettingUp)
   int get_up_entry_ = -1;  // the get-up clip imitated now; -1: the inner task leads
