@@ -25,6 +25,7 @@ sim::EnvConfig TrialEnvironment(sim::EnvConfig env, const sim::Character& charac
     env.allowed_contacts.push_back(mj_id2name(character.model(), mjOBJ_BODY, b));
   }
   env.max_root_distance = std::numeric_limits<double>::infinity();
+  env.recovery.give_up_after = std::numeric_limits<double>::infinity();
   env.max_episode_steps = std::max(env.max_episode_steps, steps + 1);
   return env;
 }

@@ -100,6 +100,8 @@ struct RecoveryConfig {
   double start_getting_up = 0.25;  // share that start at a random time of a get-up clip
   // The imitation reward while getting up counts this much, so that falling costs.
   double get_up_reward_scale = 0.5;
+  // Still getting up this long after a fall (or a fallen start), s: the episode ends as a fall.
+  double give_up_after = 8.0;
   bool enabled() const { return !face_down.empty(); }
 };
 

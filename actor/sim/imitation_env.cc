@@ -393,7 +393,8 @@ bool ImitationEnv::Diverged() const {
 }
 
 EpisodeEnd ImitationEnv::CheckTermination() const {
-  if (!task_->falls_end_episode()) return EpisodeEnd::kRunning;
+  if (!task_->falls_end_episode())
+    return task_->failed() ? EpisodeEnd::kFell : EpisodeEnd::kRunning;
   const mjModel* m = character_->model();
   const mjData* d = data_.get();
   for (int i = 0; i < d->ncon; ++i) {
@@ -439,7 +440,7 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     d->ctrl[h.actuator] = std::clamp(target, h.lower, h.upper);
   }
 
-  if (perturbations_) perturbations_->BeforeStep(d);
+  if (perturbations_) perturbations_->BeforeStep(d, !motions_->entry(reference_entry_).get_up);
   // mj_step = mj_step1 (positions, velocities, contacts) + mj_step2 (forces, integration).
   // Running step1 after each integration instead of before keeps every derived quantity in
   // `d` current for the observation and reward at no extra cost (Euler integrator).

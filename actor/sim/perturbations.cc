@@ -36,11 +36,15 @@ void Perturbations::Reset() {
   if (judge_steps_left_ > 0) Judge(true);
 }
 
-void Perturbations::BeforeStep(mjData* d) {
+void Perturbations::BeforeStep(mjData* d, bool may_push) {
   if (push_steps_left_ > 0 && --push_steps_left_ == 0) {
     mju_zero(d->xfrc_applied + 6 * pushed_body_, 3);
   }
   if (--steps_to_next_ > 0) return;
+  if (!may_push) {
+    steps_to_next_ = 1;
+    return;
+  }
   if (pushed_body_ >= 0) mju_zero(d->xfrc_applied + 6 * pushed_body_, 3);
   if (judge_steps_left_ > 0) Judge(true);  // pushed again before the last one was judged
   std::uniform_real_distribution<double> unit(0, 1);

@@ -27,8 +27,10 @@ class Perturbations {
 
   // A new episode: nothing in flight, the next push after a random interval. The level stays.
   void Reset();
-  // Before a control step's physics: starts, holds or ends a push (d->xfrc_applied).
-  void BeforeStep(mjData* d);
+  // Before a control step's physics: starts, holds or ends a push (d->xfrc_applied). While
+  // `may_push` is false (the character gets up) a push that falls due waits, so that the
+  // curriculum judges pushes on a character that stands.
+  void BeforeStep(mjData* d, bool may_push = true);
   // After it: whether the character fell in it (ending the episode, or seen by a task that gets
   // up).
   void AfterStep(bool fell);

@@ -7,7 +7,7 @@
 namespace ragdoll::sim {
 
 RecoveryTask::RecoveryTask(const EnvConfig& config, std::unique_ptr<Task> inner)
-    : config_(config.recovery), inner_(std::move(inner)) {
+    : config_(config.recovery), inner_(std::move(inner)), control_dt_(config.control_dt()) {
   if (!config_.enabled()) throw std::invalid_argument("a recovery task needs get-up clips");
   inner_figures_ = static_cast<int>(inner_->FigureSpecs().size());
 }
@@ -75,6 +75,7 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
   }
   falls_ = 0;
   recovering_steps_ = 0;
+  down_steps_ = 0;
   get_up_entry_ = -1;
   inner_->Start(env, rng);
   if (start_ == Beginning::kGettingUp) {
@@ -104,7 +105,10 @@ bool RecoveryTask::Fallen(const TaskHost& env) {
 void RecoveryTask::GetUp(TaskHost& env) {
   // Which way the trunk's front (+x) points: at the floor, the get-up from lying face down.
   const double front_z = env.data().xmat[9 * env.character().root_body() + 6];
-  if (get_up_entry_ < 0) ++falls_;
+  if (get_up_entry_ < 0) {
+    ++falls_;
+    down_steps_ = 0;
+  }
   get_up_entry_ = front_z < 0 ? face_down_ : face_up_;
   env.SwitchReference(get_up_entry_);
 }
@@ -116,6 +120,7 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
     return true;
   }
   ++recovering_steps_;
+  ++down_steps_;
   if (env.time() < env.clip().duration() - 1e-9) return false;
   // The get-up has played: standing, the task underneath leads again; if not, get up again
   // from where the character is.
@@ -126,6 +131,10 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
     GetUp(env);
   }
   return true;
+}
+
+bool RecoveryTask::failed() const {
+  return get_up_entry_ >= 0 && down_steps_ * control_dt_ > config_.give_up_after;
 }
 
 std::optional<double> RecoveryTask::reference_heading() const {

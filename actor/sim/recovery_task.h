@@ -43,6 +43,8 @@ class RecoveryTask final : public Task {
   bool Advance(TaskHost& env, std::mt19937_64& rng) override;
   std::optional<double> reference_heading() const override;
   bool falls_end_episode() const override { return false; }
+  // Still getting up config.recovery.give_up_after seconds after the get-up began.
+  bool failed() const override;
   double imitation_scale() const override;
   double Reward(const TaskHost& env, const PoseFeatures& character) override;
   void Figures(double steps, double* out) const override;
@@ -66,8 +68,10 @@ class RecoveryTask final : public Task {
   int start_entry_ = -1;   // the get-up clip an episode starts in (kGettingUp)
   int get_up_entry_ = -1;  // the get-up clip imitated now; -1: the inner task leads
   int face_down_ = -1, face_up_ = -1;
+  double control_dt_;
   int falls_ = 0;
   int recovering_steps_ = 0;
+  int down_steps_ = 0;  // since the current get-up began
 };
 
 }  // namespace ragdoll::sim

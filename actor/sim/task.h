@@ -87,6 +87,9 @@ class Task {
   // Whether a body outside allowed_contacts touching the ground, or the root straying from the
   // reference, ends the episode (DeepMimic's early termination); a task that gets up does not.
   virtual bool falls_end_episode() const { return true; }
+  // Its own failure state (one that gets up: still down long after a fall), which ends the
+  // episode as a fall.
+  virtual bool failed() const { return false; }
   // Falls seen this episode by a task that keeps episodes going through them.
   virtual int falls() const { return 0; }
   // How much the imitation reward counts this step (getting up counts less, so falling costs).

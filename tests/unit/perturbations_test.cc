@@ -63,6 +63,19 @@ TEST_F(PerturbationsTest, PushesForTheirDurationAtTheirIntervalWithinTheLevel) {
   EXPECT_EQ(p.pushes(), 2);
 }
 
+// A push that falls due while the character gets up waits until it stands.
+TEST_F(PerturbationsTest, APushWaitsWhileTheCharacterGetsUp) {
+  Perturbations p(config_, *character_, kDt, 7);
+  std::vector<int> pushed_steps;
+  for (int step = 1; step <= 45; ++step) {
+    p.BeforeStep(data_.get(), /*may_push=*/step < 20 || step >= 40);
+    if (Force() > 0) pushed_steps.push_back(step);
+    p.AfterStep(false);
+  }
+  EXPECT_EQ(pushed_steps, (std::vector<int>{40, 41, 42}));
+  EXPECT_EQ(p.pushes(), 1);
+}
+
 // The level rises by a step after a window of survived pushes, up to max, and falls by a step
 // after a window of falls, down to start; an episode that ends in a fall judges its push.
 TEST_F(PerturbationsTest, TheLevelFollowsTheCharacterWithinStartAndMax) {

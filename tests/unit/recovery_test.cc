@@ -156,6 +156,26 @@ TEST_F(RecoveryEnvTest, AFallSwitchesToTheGetUpForHowTheCharacterLies) {
   EXPECT_NEAR(env->episode().figures[Figure(*env, "getting_up")], 150.0 / 151.0, 1e-12);
 }
 
+// Still down give_up_after seconds after the fall, the episode ends as a fall.
+TEST_F(RecoveryEnvTest, StillDownTooLongEndsTheEpisode) {
+  config_.recovery.give_up_after = 2.0;
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  std::mt19937_64 rng(5);
+  const FallenState fallen = SettledFall(*character_, env->clip(), rng);
+  int steps = 0;
+  StepResult step;
+  do {
+    env->SetState(fallen.qpos.data(), fallen.qvel.data());
+    step = env->Step(action.data(), obs.data());
+    ++steps;
+  } while (!step.terminated && steps < 200);
+  EXPECT_TRUE(step.terminated);
+  EXPECT_EQ(env->episode().end, EpisodeEnd::kFell);
+  EXPECT_EQ(steps, 1 + 61);  // the step that saw the fall, then just over 2 s at 30 Hz
+}
+
 // A get-up followed exactly (the state set to the reference's at every step) stands at the
 // clip's end, and the reference hands back to the walk.
 TEST_F(RecoveryEnvTest, AGetUpPlayedThroughHandsBackToTheWalk) {
