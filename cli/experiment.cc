@@ -80,6 +80,11 @@ Experiment ReadExperiment(const std::string& path, int port_base) {
   } else {
     e.tree["environment"]["motion"] = std::filesystem::absolute(e.environment.motion).string();
   }
+  if (e.environment.recovery.enabled()) {
+    YAML::Node recovery = e.tree["environment"]["recovery"];
+    recovery["face_down"] = std::filesystem::absolute(e.environment.recovery.face_down).string();
+    recovery["face_up"] = std::filesystem::absolute(e.environment.recovery.face_up).string();
+  }
   e.tree["environment"]["character"] = std::filesystem::absolute(e.environment.character).string();
   YAML::Node contacts(YAML::NodeType::Sequence);
   for (const auto& body : e.environment.allowed_contacts) contacts.push_back(body);

@@ -98,7 +98,7 @@ std::unique_ptr<std::FILE, FileCloser> OpenLog(const std::string& path) {
   if (!log) throw ConfigError("play: --log " + path + ": cannot write the file");
   std::fprintf(log.get(),
                "time,wall,episode,command,reference,x,y,heading,desired_heading,vx,vy,"
-               "speed_error,heading_error,fell,falls,getting_up,standing\n");
+               "speed_error,heading_error,fell,falls,getting_up,standing,pushed\n");
   return log;
 }
 
@@ -113,7 +113,7 @@ class PlaySession {
         push_ticks_total_(std::max(1, static_cast<int>(std::lround(o.push_duration / dt_)))),
         worker_(env, 1, 1, o.seed, "play"),
         e_(worker_.environment(0)),
-        steering_(sim::Steering(e_)),
+        steering_(env.steering.enabled() ? &sim::Steering(e_) : nullptr),
         motions_(e_.motion_set()),
         model_(e_.character().model()),
         root_(e_.character().root_body()),
@@ -127,8 +127,11 @@ class PlaySession {
         rng_(o.seed),
         push_impulse_(o.push_impulse) {
     worker_.SetPolicy(policy.snapshot);
-    command_ = motions_.Nearest(KeyCommand(keys_));
-    worker_.SetCommandFirst(command_);
+    command_ = motions_.commands().front();
+    if (steering_) {
+      command_ = motions_.Nearest(KeyCommand(keys_));
+      worker_.SetCommandFirst(command_);
+    }
     worker_.ResetFirst(uniform_(rng_));
   }
 
@@ -197,7 +200,7 @@ class PlaySession {
 
   // The command the held keys ask for, and a push when space was pressed.
   void Steer() {
-    const int wanted = motions_.Nearest(KeyCommand(keys_));
+    const int wanted = steering_ ? motions_.Nearest(KeyCommand(keys_)) : command_;
     if (wanted != command_) {
       command_ = wanted;
       worker_.SetCommandFirst(command_);
@@ -219,6 +222,7 @@ class PlaySession {
     e_.SetExternalForce(body, {force * std::cos(direction), force * std::sin(direction), 0});
     push_angle_ = sim::WrapAngle(direction - e_.heading());
     push_shown_ = impulse;
+    pushed_now_ = impulse;
     pushed_body_ = body;
     push_ticks_ = ticks;
     ++pushes_;
@@ -236,7 +240,7 @@ class PlaySession {
     if (r.terminated) {
       ++falls_;
       std::fprintf(stderr, "play: fell (%s) after %.1f s; restarting\n",
-                   sim::EpisodeEndName(e_.episode().end), steering_.episode_time());
+                   sim::EpisodeEndName(e_.episode().end), e_.episode().length * dt_);
       pause_left_ = o_.fall_pause;
       push_ticks_ = 0;
       if (pause_left_ <= 0) Reset();
@@ -263,17 +267,25 @@ class PlaySession {
     getting_up_ = getting_up;
   }
 
+  // The travel velocity steering measures, or the root's without steering, m/s.
+  sim::Vec3 Velocity() const {
+    if (steering_) return steering_->TravelVelocity();
+    return {e_.data().qvel[0], e_.data().qvel[1], 0};
+  }
+  double DesiredHeading() const { return steering_ ? steering_->desired_heading() : e_.heading(); }
+
   void LogStep(const sim::StepResult& r) {
-    const sim::Vec3 v = steering_.TravelVelocity();
+    const sim::Vec3 v = Velocity();
     const bool standing =
         sim::PostureOf(e_.character(), e_.data(), stand_height_) == sim::Posture::kStanding;
     std::fprintf(
-        log_.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d\n",
+        log_.get(), "%.4f,%.4f,%d,%s,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d,%d,%d,%d,%.0f\n",
         (ticks_ + 1) * dt_, SecondsSince(start_), episode_, motions_.entry(command_).name.c_str(),
         motions_.entry(e_.reference_entry()).name.c_str(), e_.data().qpos[0], e_.data().qpos[1],
-        e_.heading(), steering_.desired_heading(), v[0], v[1], steering_.SpeedError(),
-        steering_.HeadingError(e_), r.terminated ? 1 : 0, e_.episode().task_falls,
-        getting_up_ ? 1 : 0, standing ? 1 : 0);
+        e_.heading(), DesiredHeading(), v[0], v[1], steering_ ? steering_->SpeedError() : 0.0,
+        steering_ ? steering_->HeadingError(e_) : 0.0, r.terminated ? 1 : 0,
+        e_.episode().task_falls, getting_up_ ? 1 : 0, standing ? 1 : 0, pushed_now_);
+    pushed_now_ = 0;
   }
 
   // The heads-up figures, over the last second.
@@ -286,7 +298,7 @@ class PlaySession {
   }
 
   std::string Hud() const {
-    const sim::Vec3 v = steering_.TravelVelocity();
+    const sim::Vec3 v = Velocity();
     std::string name = motions_.entry(command_).name;
     const std::string& clip = motions_.entry(e_.reference_entry()).name;
     if (clip != name) name += " via " + clip;  // a transition clip plays
@@ -294,7 +306,7 @@ class PlaySession {
     std::snprintf(text, sizeof(text),
                   "command %s\nspeed %.2f m/s\nheading %.0f deg, desired %.0f deg\npolicy v%lld",
                   name.c_str(), std::hypot(v[0], v[1]), Degrees(e_.heading()),
-                  Degrees(steering_.desired_heading()), static_cast<long long>(policy_version_));
+                  Degrees(DesiredHeading()), static_cast<long long>(policy_version_));
     std::string caption = text;
     if (window_start_ > 0) {  // measured over a second at least
       std::snprintf(text, sizeof(text), "\n%.0f fps, real time x%.2f", fps_, realtime_);
@@ -348,7 +360,7 @@ class PlaySession {
   const int push_ticks_total_;
   actor::RolloutWorker worker_;
   sim::ImitationEnv& e_;
-  const sim::SteeringTask& steering_;
+  const sim::SteeringTask* steering_;  // none: the keys only push and knock down
   const sim::MotionSet& motions_;
   const mjModel* model_;
   const int root_, chest_;
@@ -366,6 +378,7 @@ class PlaySession {
   int episode_ = 0, push_ticks_ = 0, falls_ = 0, pushes_ = 0;
   double push_impulse_;    // N s of a push (space)
   double push_shown_ = 0;  // N s of the current push or knock
+  double pushed_now_ = 0;  // N s of a push or knock started this step, for the log
   int pushed_body_ = 0;
   double push_angle_ = 0;  // of the current push, from the character's facing, radians
   int task_falls_ = 0;     // falls the recovery task saw this episode
@@ -383,9 +396,10 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
   TrainedPolicy policy = LoadTrainedPolicy(o.target);
   sim::EnvConfig env = policy.experiment.environment;
   if (!env.steering.enabled()) {
-    throw ConfigError("play: " + policy.checkpoint +
-                      " was not trained with a steering task (environment.steering); "
-                      "`ragdoll render` shows other runs");
+    std::fprintf(stderr,
+                 "play: %s has no steering task (environment.steering): it follows its clip; "
+                 "space pushes, K knocks it down\n",
+                 policy.checkpoint.c_str());
   }
   // A player walks for as long as they like: no time limit cuts the episode short.
   env.max_episode_steps = 1'000'000'000;
@@ -401,7 +415,9 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
 std::function<int()> AddPlayCommand(CLI::App& app, const std::atomic<bool>& stop) {
   auto o = std::make_shared<PlayOptions>();
   auto* cmd = app.add_subcommand(
-      "play", "steer a trained steering run with the keyboard, in a window, in real time");
+      "play",
+      "steer a trained run with the keyboard (a steering run), push it and knock it down, in a "
+      "window, in real time");
   cmd->add_option("run_or_checkpoint", o->target, "runs/<id> or a checkpoint")->required();
   cmd->add_option("--seconds", o->seconds, "quit after this many seconds (default: on Esc)");
   cmd->add_option("--log", o->log,

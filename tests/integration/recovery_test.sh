@@ -13,9 +13,11 @@ trap '[ -n "${KEEP:-}" ] || rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 assets=$(cd "$configs/../assets" && pwd)
 
+# The configs keep their relative asset paths (../assets beside them, a link), so that the run
+# folder's effective config must have made them absolute.
+mkdir -p "$work/configs" && ln -s "$assets" "$work/assets"
 shrink() {  # config out
-  sed -e 's#\.\./assets#'"$assets"'#' \
-      -e 's/^  max_episode_steps: .*/  max_episode_steps: 90/' \
+  sed -e 's/^  max_episode_steps: .*/  max_episode_steps: 90/' \
       -e 's/^    batch_size: .*/    batch_size: 256/' -e 's/^    buffer_size: .*/    buffer_size: 1024/' \
       -e 's/^    hidden_units: .*/    hidden_units: 32/' -e 's/^  max_steps: .*/  max_steps: 2048/' \
       -e 's/^  time_horizon: .*/  time_horizon: 16/' -e 's/^  checkpoint_interval: .*/  checkpoint_interval: 1024/' \
@@ -34,7 +36,7 @@ check_run() {  # name config port
     !(c["falls"] && $c["falls"] >= 0 && $c["getting_up"] > 0 && $c["getting_up"] <= 1 &&
       (!c["push_level"] || $c["push_level"] >= 20)) { bad = 1 }
     END { exit bad }' "$run/metrics.csv" || fail "$name: recovery columns: $(cat "$run/metrics.csv")"
-  [ "$(grep -c 'humanoid3d_getup_face' "$run/config.yaml")" -eq 2 ] ||
+  [ "$(grep -cE 'face_(down|up): /' "$run/config.yaml")" -eq 2 ] ||
     fail "$name: effective config: $(cat "$run/config.yaml")"
 
   "$ragdoll" eval "$run" --episodes 2 --recovery 4 --recovery-seconds 3 --json "$work/$name-eval.json" \
@@ -55,14 +57,14 @@ check_run() {  # name config port
   "$ragdoll" verify "$run" > /dev/null 2>&1 || fail "$name: verify"
 }
 
-shrink "$configs/walk_recovery.yaml" "$work/walk_recovery.yaml"
-check_run walk "$work/walk_recovery.yaml" "$port"
+shrink "$configs/walk_recovery.yaml" "$work/configs/walk_recovery.yaml"
+check_run walk "$work/configs/walk_recovery.yaml" "$port"
 
 # Steering with recovery: steer.yaml and the walk's recovery section.
-shrink "$configs/steer.yaml" "$work/steer_recovery.yaml"
-sed -n '/^  recovery:/,/get_up_reward_scale/p' "$work/walk_recovery.yaml" > "$work/recovery.part"
-sed -i "/^environment:/r $work/recovery.part" "$work/steer_recovery.yaml"
-check_run steer "$work/steer_recovery.yaml" "$((port + 10))"
+shrink "$configs/steer.yaml" "$work/configs/steer_recovery.yaml"
+sed -n '/^  recovery:/,/give_up_after/p' "$work/configs/walk_recovery.yaml" > "$work/recovery.part"
+sed -i "/^environment:/r $work/recovery.part" "$work/configs/steer_recovery.yaml"
+check_run steer "$work/configs/steer_recovery.yaml" "$((port + 10))"
 jq -e '(.steering.clips | map(.name) | index("get_up_face_up")) == null
        and .observation.names[-2:] == ["recovery.face_down", "recovery.face_up"]' \
   "$work/steer.json" > /dev/null || fail "steer: sidecar: $(jq -c '.steering.clips | map(.name)' "$work/steer.json")"
