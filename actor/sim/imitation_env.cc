@@ -18,6 +18,10 @@ namespace {
 const char* const kImitationTerms[] = {"rotation", "velocity", "end_effector", "com", "root"};
 constexpr int kImitationTermCount = static_cast<int>(std::size(kImitationTerms));
 
+// A pelvis this much higher or lower than a get-up key frame's counts as much as its trunk
+// turned a radian from the frame's, m.
+constexpr double kGetUpHeightScale = 0.25;
+
 // Half-width of the central difference that turns reference joint angles into joint velocities.
 // Well under a key-frame interval (33 ms at 30 fps), well above rounding.
 constexpr double kVelocityStep = 1e-3;
@@ -272,11 +276,13 @@ void ImitationEnv::SwitchReference(int entry) {
   const MotionClip& clip = *motions_->entry(entry).clip;
   // The key frame whose pose is closest to the character's (weighted joint rotation error, as
   // the reward's rotation term); a transition is entered in its first half only, a get-up before
-  // its last tenth.
+  // its last tenth and by the trunk's posture too (a body lying with straight legs is nearest
+  // in its joints to the get-up's last, standing frames).
   const int n = clip.num_frames();
-  const int last = clip.loop()                     ? n - 1
-                   : motions_->entry(entry).get_up ? std::max(1, n * 9 / 10)
-                                                   : std::max(1, n / 2);
+  const bool get_up = motions_->entry(entry).get_up;
+  const int last = clip.loop() ? n - 1 : get_up ? std::max(1, n * 9 / 10) : std::max(1, n / 2);
+  const Quat root_rotation = {data_->qpos[3], data_->qpos[4], data_->qpos[5], data_->qpos[6]};
+  const Vec3 up = Rotate(root_rotation, {0, 0, 1}), front = Rotate(root_rotation, {1, 0, 0});
   double weight_sum = 0;
   for (double w : joint_weights_) weight_sum += w;
   int best = 0;
@@ -293,6 +299,14 @@ void ImitationEnv::SwitchReference(int entry) {
       if (joint_weights_[j] == 0) continue;
       double a = AngleBetween(current[j], pose.joint_rotations[j]);
       error += joint_weights_[j] / weight_sum * a * a;
+    }
+    if (get_up) {
+      // How far up the trunk's up and front axes point, and how high the pelvis is, compared.
+      const Vec3 frame_up = Rotate(pose.root_rotation, {0, 0, 1});
+      const Vec3 frame_front = Rotate(pose.root_rotation, {1, 0, 0});
+      const double height = (data_->qpos[2] - pose.root_position[2]) / kGetUpHeightScale;
+      error += std::pow(up[2] - frame_up[2], 2) + std::pow(front[2] - frame_front[2], 2) +
+               height * height;
     }
     if (error < best_error) {
       best_error = error;

@@ -85,6 +85,7 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
         SettledFall(env.character(), *set.entry(inner_->StartEntry(set)).clip, rng);
     env.SetState(fallen.qpos.data(), fallen.qvel.data());
     GetUp(env);
+    falls_ = 0;  // a start, not a fall
   }
   // Until the next ChooseEpisode: a reset at a given phase starts standing.
   start_ = Beginning::kStanding;

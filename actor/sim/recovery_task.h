@@ -56,7 +56,8 @@ class RecoveryTask final : public Task {
   enum class Beginning { kStanding, kFallen, kGettingUp };
   // Whether a body the base clips keep off the floor touches it.
   bool Fallen(const TaskHost& env);
-  // The reference becomes the get-up clip for how the character lies, at its closest key frame.
+  // The reference becomes the get-up clip for how the character lies, at its closest key frame;
+  // a fall when the character was not getting up already.
   void GetUp(TaskHost& env);
 
   RecoveryConfig config_;
