@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -18,8 +19,10 @@
 #include <thread>
 #include <vector>
 
+#include "actor/sim/imitation_env.h"
 #include "cli/experiment.h"
 #include "common/config_section.h"
+#include "learner/checkpoint_store.h"
 
 namespace ragdoll::cli {
 namespace fs = std::filesystem;
@@ -105,6 +108,33 @@ void Stop(std::vector<Child>& children, const std::string& role, double seconds)
 // Refuses before anything starts: a broker beyond loopback without keys (the broker would, too),
 // and ports another run on this machine holds (its broker would take this run's learner and
 // actors; their run ids keep the data apart, but nothing would train).
+// --init-from: the source run's observation entries must be the first of this run's (a task's
+// entries appended, as recovery's after steering's), so that its weights mean the same here; the
+// learner starts the new entries at zero weight.
+void CheckInitFrom(const std::string& source, const sim::EnvConfig& env) {
+  const std::string checkpoint = learner::FindCheckpoint(source);
+  if (checkpoint.empty()) throw ConfigError("--init-from " + source + ": no checkpoint found");
+  const fs::path config = fs::path(checkpoint).parent_path().parent_path() / "config.yaml";
+  if (!fs::exists(config)) return;  // a checkpoint on its own: the learner checks the sizes
+  const std::vector<std::string> from =
+      sim::MakeEnvSpec(ReadExperiment(config.string()).environment).observation_names;
+  const std::vector<std::string> to = sim::MakeEnvSpec(env).observation_names;
+  const auto [mismatch, unused] = std::mismatch(from.begin(), from.end(), to.begin(), to.end());
+  if (mismatch != from.end()) {
+    const size_t i = mismatch - from.begin();
+    throw ConfigError("--init-from " + source + ": its observation entry " + std::to_string(i) +
+                      " is '" + from[i] + "', this run's is '" +
+                      (i < to.size() ? to[i] : std::string("(none)")) +
+                      "'; a run can start from one whose observation entries its own begin with");
+  }
+  if (to.size() > from.size()) {
+    std::fprintf(stderr,
+                 "ragdoll train: --init-from %s: %zu new observation entries (%s, ...) start at "
+                 "zero weight\n",
+                 source.c_str(), to.size() - from.size(), to[from.size()].c_str());
+  }
+}
+
 void CheckBeforeStart(Endpoints& endpoints, const std::string& keys, bool insecure) {
   endpoints.curve = LoadCurve(keys, "broker");
   CheckTransportSecurity(endpoints, insecure);
@@ -299,6 +329,8 @@ class Supervisor {
 
 int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
   Experiment e = ReadExperiment(options.config, options.port_base);
+  if (!options.init_from.empty() && !options.resume)
+    CheckInitFrom(options.init_from, e.environment);
   const std::string keys = options.keys.empty() ? e.keys_dir : options.keys;
   CheckBeforeStart(e.broker.endpoints, keys, options.insecure);
   const std::string run_id = options.run_id.empty() ? DefaultRunId(e.name) : options.run_id;

@@ -501,17 +501,51 @@ std::string Learner::LoadArchive(torch::serialize::InputArchive& archive, const 
   }
 }
 
+std::pair<int, int> CheckpointSizes(const std::string& path) {
+  torch::serialize::InputArchive archive;
+  torch::Tensor sizes;
+  try {
+    std::istringstream in(ReadCheckpointFile(path));
+    archive.load_from(in);
+    archive.read("sizes", sizes);
+  } catch (const std::exception& e) {
+    throw Unreadable(path, e);
+  }
+  return {static_cast<int>(sizes[0].item<int64_t>()), static_cast<int>(sizes[1].item<int64_t>())};
+}
+
 void Learner::LoadWeights(const std::string& path) {
-  Learner other(config_, observation_size_, action_size_);
+  const auto [observations, actions] = CheckpointSizes(path);
+  if (actions != action_size_ || observations > observation_size_) {
+    throw ConfigError(path + ": checkpoint is for observation/action sizes " +
+                      std::to_string(observations) + "/" + std::to_string(actions) +
+                      ", this run has " + std::to_string(observation_size_) + "/" +
+                      std::to_string(action_size_) +
+                      " (a run can start from one whose observation its own extends)");
+  }
+  Learner other(config_, observations, actions);
   other.Load(path);
   torch::NoGradGuard no_grad;
+  // Every weight as it was; the first layers' columns for observation entries the source did not
+  // have start at zero, so the networks compute what the source's did.
   auto copy = [](torch::nn::Module& from, torch::nn::Module& to) {
     auto source = from.named_parameters();
-    for (auto& item : to.named_parameters()) item.value().copy_(source[item.key()]);
+    for (auto& item : to.named_parameters()) {
+      const torch::Tensor& value = source[item.key()];
+      if (value.sizes() == item.value().sizes()) {
+        item.value().copy_(value);
+      } else {
+        item.value().zero_();
+        item.value().narrow(1, 0, value.size(1)).copy_(value);
+      }
+    }
   };
   copy(*other.policy_, *policy_);
   copy(*other.critic_, *critic_);
-  stats_ = other.stats_;
+  std::vector<double> mean = other.stats_.mean(), var = other.stats_.var();
+  mean.resize(observation_size_, 0.0);
+  var.resize(observation_size_, 1.0);
+  stats_ = RunningStats(std::move(mean), std::move(var), other.stats_.count());
   return_stats_ = other.return_stats_;
 }
 

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/policy.h"
@@ -49,6 +50,10 @@ struct EpisodeStatsSum {
   void Add(const v1::EpisodeSummary& e);
   double Mean(double sum) const { return episodes ? sum / episodes : 0.0; }
 };
+
+// The observation and action sizes a checkpoint was written for. Throws ConfigError for a file
+// that is not a readable checkpoint.
+std::pair<int, int> CheckpointSizes(const std::string& path);
 
 class Learner {
  public:
@@ -103,6 +108,9 @@ class Learner {
   std::string SaveToBytes(const std::string& config_text, bool with_optimizer = true);
   std::string LoadFromBytes(const std::string& bytes, const std::string& source);
   // Copies only the network weights and observation statistics of a checkpoint (--init-from).
+  // The checkpoint may have fewer observation entries than this learner (a task added on top,
+  // its entries appended): the new entries start with zero weights and unit statistics. Throws
+  // ConfigError for other sizes.
   void LoadWeights(const std::string& path);
 
   // Whether the last Load restored the optimizer's state (false: a checkpoint without it).

@@ -4,7 +4,9 @@
 # has the falls, getting_up and push_level columns; `ragdoll eval --recovery` drops the trained
 # character into settled falls and reports them; the export's sidecar carries the get-up clips,
 # the fall and stand rules and the observation entries that name the get-up; `verify` accepts the
-# checkpoint. The same with steering (configs/steer.yaml with the recovery section added).
+# checkpoint. The same with steering (configs/steer.yaml with the recovery section added), started
+# from a steering run without recovery (--init-from), and a source whose observation the new run's
+# does not begin with refused.
 #   recovery_test.sh RAGDOLL CONFIGS_DIR PORT_BASE
 set -u
 ragdoll=$1 configs=$2 port=$3
@@ -25,10 +27,11 @@ shrink() {  # config out
   grep -q "hidden_units: 32" "$2" || fail "could not shrink $1"
 }
 
-check_run() {  # name config port
+check_run() {  # name config port [train options]
   local name=$1 config=$2 p=$3 run=$work/runs/$1
+  shift 3
   timeout 180 "$ragdoll" train "$config" --run-id "$name" --runs-dir "$work/runs" --port-base "$p" \
-    > "$work/$name-train.txt" 2>&1 || { tail -20 "$work/$name-train.txt"; fail "$name: train"; }
+    "$@" > "$work/$name-train.txt" 2>&1 || { tail -20 "$work/$name-train.txt"; fail "$name: train"; }
   [ "$(wc -l < "$run/metrics.csv")" -eq 3 ] || fail "$name: expected two updates: $(cat "$run/metrics.csv")"
   # Episodes go on through falls: falls per episode >= 0, a share of steps getting up in [0, 1]
   # (a quarter of the episodes start fallen), the push curriculum's level.
@@ -60,11 +63,24 @@ check_run() {  # name config port
 shrink "$configs/walk_recovery.yaml" "$work/configs/walk_recovery.yaml"
 check_run walk "$work/configs/walk_recovery.yaml" "$port"
 
-# Steering with recovery: steer.yaml and the walk's recovery section.
-shrink "$configs/steer.yaml" "$work/configs/steer_recovery.yaml"
+# Steering with recovery: steer.yaml and the walk's recovery section, started from a steering run
+# without it (--init-from: the two recovery inputs are new).
+shrink "$configs/steer.yaml" "$work/configs/steer.yaml"
+timeout 180 "$ragdoll" train "$work/configs/steer.yaml" --run-id steer_plain --runs-dir "$work/runs" \
+  --port-base "$((port + 20))" > "$work/steer_plain.txt" 2>&1 || { tail -20 "$work/steer_plain.txt"; fail "steer_plain: train"; }
+cp "$work/configs/steer.yaml" "$work/configs/steer_recovery.yaml"
 sed -n '/^  recovery:/,/give_up_after/p' "$work/configs/walk_recovery.yaml" > "$work/recovery.part"
 sed -i "/^environment:/r $work/recovery.part" "$work/configs/steer_recovery.yaml"
-check_run steer "$work/configs/steer_recovery.yaml" "$((port + 10))"
+check_run steer "$work/configs/steer_recovery.yaml" "$((port + 10))" --init-from "$work/runs/steer_plain"
+grep -q "2 new observation entries (recovery.face_down, ...) start at zero weight" "$work/steer-train.txt" ||
+  fail "--init-from a steering run: $(grep init "$work/steer-train.txt")"
+# Refused: the walk's observation does not begin with the steering run's.
+if "$ragdoll" train "$work/configs/walk_recovery.yaml" --run-id refused --runs-dir "$work/runs" \
+     --port-base "$((port + 30))" --init-from "$work/runs/steer" > "$work/refused.txt" 2>&1; then
+  fail "--init-from a run whose observation is not a prefix was accepted"
+fi
+grep -q "a run can start from one whose observation entries its own begin with" "$work/refused.txt" ||
+  fail "refusal: $(cat "$work/refused.txt")"
 jq -e '(.steering.clips | map(.name) | index("get_up_face_up")) == null
        and .observation.names[-2:] == ["recovery.face_down", "recovery.face_up"]' \
   "$work/steer.json" > /dev/null || fail "steer: sidecar: $(jq -c '.steering.clips | map(.name)' "$work/steer.json")"

@@ -200,6 +200,39 @@ TEST_F(LearnerTest, CheckpointRestoresTrainingStateExactly) {
   EXPECT_TRUE(SameParameters(*original.critic(), *restored.critic()));
 }
 
+// --init-from a run whose observation this one's extends (a task's entries appended): the policy
+// and critic compute what the source's did whatever the new entries hold, the statistics of the
+// new entries start at mean 0, variance 1; other sizes are refused.
+TEST_F(LearnerTest, WeightsLoadIntoALearnerWithMoreObservationEntries) {
+  torch::manual_seed(1);
+  Learner source(SmallConfig(), kObs, kAct);
+  Fill(source, 1);
+  source.Update();
+  const std::string path = (dir_ / "source.pt").string();
+  source.Save(path, "trainer: {}\n");
+  EXPECT_EQ(CheckpointSizes(path), std::make_pair(kObs, kAct));
+
+  Learner grown(SmallConfig(), kObs + 2, kAct);
+  grown.LoadWeights(path);
+  torch::NoGradGuard no_grad;
+  const torch::Tensor x = torch::randn({5, kObs});
+  const torch::Tensor extended = torch::cat({x, torch::randn({5, 2})}, 1);
+  EXPECT_TRUE(torch::allclose(grown.policy()->forward(extended), source.policy()->forward(x)));
+  EXPECT_TRUE(torch::allclose(grown.critic()->forward(extended), source.critic()->forward(x)));
+  ASSERT_EQ(grown.stats().mean().size(), static_cast<size_t>(kObs + 2));
+  for (int i = 0; i < kObs; ++i) {
+    EXPECT_EQ(grown.stats().mean()[i], source.stats().mean()[i]);
+    EXPECT_EQ(grown.stats().var()[i], source.stats().var()[i]);
+  }
+  EXPECT_EQ(grown.stats().mean()[kObs + 1], 0.0);
+  EXPECT_EQ(grown.stats().var()[kObs + 1], 1.0);
+
+  Learner smaller(SmallConfig(), kObs - 1, kAct);
+  EXPECT_THROW(smaller.LoadWeights(path), ConfigError);
+  Learner other_actions(SmallConfig(), kObs + 2, kAct + 1);
+  EXPECT_THROW(other_actions.LoadWeights(path), ConfigError);
+}
+
 // A shipped checkpoint (`export --run`) leaves out Adam's state: a third the size, the same
 // policy, critic and statistics, and training from it starts the optimizer afresh.
 TEST_F(LearnerTest, ACheckpointWithoutOptimizerStateKeepsThePolicyAndRestartsAdam) {
