@@ -501,12 +501,25 @@ std::string Learner::LoadArchive(torch::serialize::InputArchive& archive, const 
   }
 }
 
-std::pair<int, int> CheckpointSizes(const std::string& path) {
+namespace {
+
+torch::serialize::InputArchive ReadArchive(const std::string& path) {
   torch::serialize::InputArchive archive;
-  torch::Tensor sizes;
   try {
     std::istringstream in(ReadCheckpointFile(path));
     archive.load_from(in);
+  } catch (const std::exception& e) {
+    throw Unreadable(path, e);
+  }
+  return archive;
+}
+
+}  // namespace
+
+std::pair<int, int> CheckpointSizes(const std::string& path) {
+  torch::serialize::InputArchive archive = ReadArchive(path);
+  torch::Tensor sizes;
+  try {
     archive.read("sizes", sizes);
   } catch (const std::exception& e) {
     throw Unreadable(path, e);
@@ -523,8 +536,34 @@ void Learner::LoadWeights(const std::string& path) {
                       std::to_string(action_size_) +
                       " (a run can start from one whose observation its own extends)");
   }
-  Learner other(config_, observations, actions);
-  other.Load(path);
+  // The networks and statistics only: the source's optimizer may have trained other parameters
+  // (learn_log_std) and is not wanted.
+  GaussianPolicy policy(observations, actions, config_.network);
+  ValueNetwork critic(observations, config_.network);
+  torch::serialize::InputArchive archive = ReadArchive(path);
+  std::vector<double> mean, var;
+  double count = 0;
+  try {
+    torch::serialize::InputArchive policy_archive, critic_archive;
+    archive.read("policy", policy_archive);
+    archive.read("critic", critic_archive);
+    policy->load(policy_archive);
+    critic->load(critic_archive);
+    torch::Tensor m, v, c, returns;
+    archive.read("stats_mean", m);
+    archive.read("stats_var", v);
+    archive.read("stats_count", c);
+    mean = DoubleVector(m);
+    var = DoubleVector(v);
+    count = c.item<double>();
+    if (archive.try_read("return_stats", returns)) {
+      returns = returns.contiguous();
+      return_stats_ = RunningStats({returns[0].item<double>()}, {returns[1].item<double>()},
+                                   returns[2].item<double>());
+    }
+  } catch (const std::exception& e) {
+    throw Unreadable(path, e);
+  }
   torch::NoGradGuard no_grad;
   // Every weight as it was; the first layers' columns for observation entries the source did not
   // have start at zero, so the networks compute what the source's did.
@@ -540,13 +579,11 @@ void Learner::LoadWeights(const std::string& path) {
       }
     }
   };
-  copy(*other.policy_, *policy_);
-  copy(*other.critic_, *critic_);
-  std::vector<double> mean = other.stats_.mean(), var = other.stats_.var();
+  copy(*policy, *policy_);
+  copy(*critic, *critic_);
   mean.resize(observation_size_, 0.0);
   var.resize(observation_size_, 1.0);
-  stats_ = RunningStats(std::move(mean), std::move(var), other.stats_.count());
-  return_stats_ = other.return_stats_;
+  stats_ = RunningStats(std::move(mean), std::move(var), count);
 }
 
 }  // namespace ragdoll::learner

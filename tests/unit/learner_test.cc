@@ -227,6 +227,13 @@ TEST_F(LearnerTest, WeightsLoadIntoALearnerWithMoreObservationEntries) {
   EXPECT_EQ(grown.stats().mean()[kObs + 1], 0.0);
   EXPECT_EQ(grown.stats().var()[kObs + 1], 1.0);
 
+  // The source's optimizer is not read: a run with the noise fixed starts from one that learned it.
+  TrainerConfig fixed_noise = SmallConfig();
+  fixed_noise.learn_log_std = false;
+  Learner fixed(fixed_noise, kObs + 2, kAct);
+  fixed.LoadWeights(path);
+  EXPECT_TRUE(torch::equal(fixed.policy()->log_std, source.policy()->log_std));
+
   Learner smaller(SmallConfig(), kObs - 1, kAct);
   EXPECT_THROW(smaller.LoadWeights(path), ConfigError);
   Learner other_actions(SmallConfig(), kObs + 2, kAct + 1);
