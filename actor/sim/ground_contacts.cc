@@ -44,4 +44,14 @@ std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Charac
   return bodies;
 }
 
+bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<char>& may_touch) {
+  for (int i = 0; i < d.ncon; ++i) {
+    const int b1 = m->geom_bodyid[d.contact[i].geom1];
+    const int b2 = m->geom_bodyid[d.contact[i].geom2];
+    const int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);
+    if (other > 0 && !may_touch[other]) return true;
+  }
+  return false;
+}
+
 }  // namespace ragdoll::sim

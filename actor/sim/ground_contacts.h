@@ -23,4 +23,8 @@ std::vector<std::pair<std::string, double>> GroundContactFractions(const MotionC
 // feet, and every body the clip itself puts on the floor (GroundContactFractions).
 std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Character& character);
 
+// Whether a body for which `may_touch[body]` is 0 is in contact with the floor (body 0, the world)
+// in `d`'s current contacts: a fall, by the episode's rule or recovery's.
+bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<char>& may_touch);
+
 }  // namespace ragdoll::sim

@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "actor/sim/ground_contacts.h"
 #include "actor/sim/observation.h"
 #include "actor/sim/recovery_task.h"
 #include "actor/sim/steering_task.h"
@@ -411,12 +412,7 @@ EpisodeEnd ImitationEnv::CheckTermination() const {
     return task_->failed() ? EpisodeEnd::kFell : EpisodeEnd::kRunning;
   const mjModel* m = character_->model();
   const mjData* d = data_.get();
-  for (int i = 0; i < d->ncon; ++i) {
-    int b1 = m->geom_bodyid[d->contact[i].geom1];
-    int b2 = m->geom_bodyid[d->contact[i].geom2];
-    int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);  // body 0 is the world: the ground
-    if (other > 0 && !may_touch_ground_[other]) return EpisodeEnd::kFell;
-  }
+  if (TouchesGroundOutside(m, *d, may_touch_ground_)) return EpisodeEnd::kFell;
   double distance2 = 0;
   for (int k = 0; k < 3; ++k) {
     double e = d->qpos[k] - ref_data_->qpos[k];

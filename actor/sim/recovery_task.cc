@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "actor/sim/falls.h"
+#include "actor/sim/ground_contacts.h"
 
 namespace ragdoll::sim {
 
@@ -92,15 +93,7 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
 }
 
 bool RecoveryTask::Fallen(const TaskHost& env) {
-  const mjModel* m = env.character().model();
-  const mjData& d = env.data();
-  for (int i = 0; i < d.ncon; ++i) {
-    const int b1 = m->geom_bodyid[d.contact[i].geom1];
-    const int b2 = m->geom_bodyid[d.contact[i].geom2];
-    const int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);  // body 0 is the world: the ground
-    if (other > 0 && !may_touch_ground_[other]) return true;
-  }
-  return false;
+  return TouchesGroundOutside(env.character().model(), env.data(), may_touch_ground_);
 }
 
 void RecoveryTask::GetUp(TaskHost& env) {
