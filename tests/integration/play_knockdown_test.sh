@@ -21,37 +21,10 @@ for tool in Xvfb xdotool python3; do
 done
 knocks=${PLAY_TEST_KNOCKS:-3} up_seconds=${PLAY_TEST_UP_SECONDS:-6}
 
-work=$(mktemp -d /tmp/ragdoll-knock.XXXXXX)
-xvfb='' play=''
-cleanup() {
-  [ -n "$play" ] && kill "$play" 2> /dev/null
-  [ -n "$xvfb" ] && kill "$xvfb" 2> /dev/null
-  wait 2> /dev/null
-  rm -rf "$work"
-}
-trap cleanup EXIT
-
-for n in $(seq 91 199); do
-  [ -e /tmp/.X$n-lock ] || [ -e /tmp/.X11-unix/X$n ] || { display=:$n; break; }
-done
-Xvfb "$display" -screen 0 1280x720x24 -nolisten tcp > "$work/xvfb.log" 2>&1 &
-xvfb=$!
-export DISPLAY=$display
-for _ in $(seq 1 50); do xdotool getdisplaygeometry > /dev/null 2>&1 && break; sleep 0.1; done
-xdotool getdisplaygeometry > /dev/null 2>&1 || fail "Xvfb did not start: $(cat "$work/xvfb.log")"
+source "$(dirname "$0")/play_session.sh" ragdoll-knock
 
 period=$((up_seconds + 6))
-"$ragdoll" play "$run" --seconds $((2 + knocks * period)) --log "$work/play.csv" \
-  > "$work/play.out" 2>&1 &
-play=$!
-wid=''
-for _ in $(seq 1 300); do
-  wid=$(xdotool search --name "ragdoll play" 2> /dev/null | head -n 1)
-  [ -n "$wid" ] && break
-  kill -0 "$play" 2> /dev/null || break
-  sleep 0.1
-done
-[ -n "$wid" ] || { cat "$work/play.out"; fail "no 'ragdoll play' window appeared"; }
+start_play "$run" --seconds $((2 + knocks * period)) --log "$work/play.csv"
 for _ in $(seq 1 "$knocks"); do
   sleep 3
   xdotool key --window "$wid" k || fail "xdotool key k"
