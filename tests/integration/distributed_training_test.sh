@@ -11,7 +11,7 @@ pids=()
 cleanup() { kill "${pids[@]}" 2>/dev/null; wait 2>/dev/null; rm -rf "$work"; }
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; echo "--- learner log"; tail -n 30 "$work"/learner*.log; echo "--- broker log"; tail -n 10 "$work/broker.log"; exit 1; }
-iterations() { grep -c "^\[" "$work/learner.log" 2>/dev/null || echo 0; }
+iterations() { cat "$work/learner.log" 2>/dev/null | grep -c "^\["; }
 wait_for() {  # seconds, description, command...
   local limit=$1 what=$2; shift 2
   for ((i = 0; i < limit * 10; i++)); do "$@" && return 0; sleep 0.1; done

@@ -11,7 +11,7 @@ train=
 cleanup() { [ -n "$train" ] && kill "$train" 2>/dev/null; wait 2>/dev/null; rm -rf "$work"; }
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; echo "--- train log"; tail -n 40 "$work/train.log"; exit 1; }
-iterations() { grep -c "^\[" "$work/train.log" 2>/dev/null || echo 0; }
+iterations() { cat "$work/train.log" 2>/dev/null | grep -c "^\["; }
 wait_for() {  # seconds (times RAGDOLL_TEST_SLOWDOWN, for sanitizer builds), description, command...
   local limit=$(($1 * ${RAGDOLL_TEST_SLOWDOWN:-1})) what=$2; shift 2
   for ((i = 0; i < limit * 10; i++)); do "$@" && return 0; sleep 0.1; done

@@ -42,14 +42,17 @@ else
     --actors 1 > "$work/train.log" 2>&1 &
   pid=$! started=$SECONDS
   pids+=($pid)
-  while [ "$(grep -c '^\[' "$work/train.log")" -lt 2 ]; do
+  # The log may not exist yet; a Ctrl-C sent before the training's handler is installed would be
+  # lost (a background job of a script starts with SIGINT ignored) and the training never stop.
+  updates() { cat "$work/train.log" 2> /dev/null | grep -c '^\['; }
+  while [ "$(updates)" -lt 2 ]; do
     [ $((SECONDS - started)) -lt 400 ] || fail "no 2 PPO updates in 400 s: $(tail -n 5 "$work/train.log")"
     kill -0 "$pid" 2> /dev/null || fail "training stopped by itself: $(tail -n 5 "$work/train.log")"
     sleep 1
   done
   kill -INT "$pid"
   wait "$pid" || fail "training did not stop cleanly: $(tail -n 5 "$work/train.log")"
-  echo "trained $(grep -c '^\[' "$work/train.log") PPO updates in $((SECONDS - started)) s"
+  echo "trained $(updates) PPO updates in $((SECONDS - started)) s"
 fi
 
 # The export, with the value head.
