@@ -20,7 +20,7 @@ struct ActorConfig {
   std::string actor_id = "actor-0";
   std::string run_id;
   double heartbeat_interval = 1.0;  // seconds
-  std::string metrics_bind = "0.0.0.0";
+  std::string metrics_bind = "127.0.0.1";
   int metrics_port = -1;  // Prometheus endpoint; < 0: none
 };
 

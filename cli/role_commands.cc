@@ -38,6 +38,7 @@ Experiment ReadRoleExperiment(const RoleOptions& o, const char* role) {
   if (!o.bind.empty()) e.broker.endpoints.bind = o.bind;
   if (!o.keys.empty()) e.keys_dir = o.keys;
   e.broker.endpoints.curve = LoadCurve(e.keys_dir, role, o.key);
+  e.metrics.bind = ResolveMetricsBind(e.metrics, e.broker.endpoints.host, e.broker.endpoints.bind);
   e.broker.keys_dir = e.keys_dir;
   return e;
 }

@@ -8,11 +8,11 @@
 #include <prometheus/histogram.h>
 #include <prometheus/registry.h>
 
-#include <atomic>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
+
+struct MHD_Daemon;
 
 namespace ragdoll {
 
@@ -21,7 +21,9 @@ class ConfigSection;
 // The `metrics:` section of an experiment.
 struct MetricsConfig {
   bool enabled = true;
-  std::string bind = "0.0.0.0";  // the interface every role's HTTP endpoint listens on
+  // The interface every role's HTTP endpoint listens on. Unset in the config: loopback when the
+  // broker is on loopback (ResolveMetricsBind), else every interface.
+  std::string bind;
   int learner_port = 9300;
   int broker_port = 9301;
   int actor_port = 9310;  // `ragdoll train` gives actor i the port actor_port + i
@@ -30,9 +32,14 @@ struct MetricsConfig {
 };
 
 MetricsConfig ReadMetricsConfig(const ConfigSection& section);
+// The metrics bind a role uses: the configured one, else 127.0.0.1 when the broker is reached
+// and listens on loopback (a training on one machine), else 0.0.0.0.
+std::string ResolveMetricsBind(const MetricsConfig& metrics, const std::string& broker_host,
+                               const std::string& broker_bind);
 
 // One process's metrics: a registry and, when a port is given, the HTTP endpoint serving it in
-// Prometheus's text format (prometheus-cpp's serializer) from one background thread.
+// Prometheus's text format (prometheus-cpp's serializer) by libmicrohttpd, which serves many
+// connections at once from one polling thread: a slow or silent client cannot hold it.
 //
 // Not prometheus-cpp's Exposer: its web server (civetweb) starts threads with a fixed 100 KB
 // stack, smaller than the static TLS of the libraries libtorch brings into every role's process
@@ -50,7 +57,7 @@ class MetricsEndpoint {
 
   prometheus::Registry& registry() { return *registry_; }
   // The port listened on; 0 when not serving.
-  int port() const { return listening_ >= 0 ? port_ : 0; }
+  int port() const { return daemon_ ? port_ : 0; }
 
   // Metric families with the constant labels; `labels` select one series.
   prometheus::Gauge& Gauge(const std::string& name, const std::string& help,
@@ -62,15 +69,10 @@ class MetricsEndpoint {
                                    const prometheus::Labels& labels = {});
 
  private:
-  void Serve();
-  void Answer(int connection);
-
   std::shared_ptr<prometheus::Registry> registry_;
   prometheus::Labels labels_;  // on every family: run, and the constructor's labels
   int port_ = 0;
-  int listening_ = -1;  // the listening socket
-  std::atomic<bool> stop_{false};
-  std::thread server_;
+  MHD_Daemon* daemon_ = nullptr;  // serving; null when not
 };
 
 // Raises a Prometheus counter to a cumulative total kept elsewhere (never lowers it).

@@ -16,6 +16,7 @@ packages=(
   libopenblas0-openmp
   # transport, wire format, metrics; checkpoint checksums (SHA-256)
   libzmq3-dev cppzmq-dev libprotobuf-dev protobuf-compiler prometheus-cpp-dev libsodium-dev
+  libmicrohttpd-dev
   # config, command line, JSON
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   # tests and benchmarks; fuzzing with clang's libFuzzer, ASan and UBSan (tests/fuzz/)

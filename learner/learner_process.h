@@ -44,7 +44,7 @@ struct LearnerProcessConfig {
   bool resume = false;             // continue from the newest checkpoint in run_dir
   std::string init_from;           // or start from another run's (or checkpoint's) weights
   double republish_seconds = 2.0;  // resend the snapshot so a restarted broker has it
-  std::string metrics_bind = "0.0.0.0";
+  std::string metrics_bind = "127.0.0.1";
   int metrics_port = -1;  // Prometheus endpoint; < 0: none
   ReplicaSettings replica;
   std::string replica_id = "learner";  // names this process to the broker (host and index)
