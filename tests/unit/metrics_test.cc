@@ -6,10 +6,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <memory>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "common/config_section.h"
 
@@ -69,6 +71,34 @@ TEST(Metrics, ServesTheRegistryWithTheRunLabel) {
   EXPECT_NE(HttpGet(m.port(), "/metrics?x=1").find("ragdoll_test_things_total"), std::string::npos);
 }
 
+// A client that connects and sends nothing, and one that sends half a request, hold their own
+// connections only: a scrape beside them is answered at once (the old single-connection server
+// answered only after their 2 s timeouts).
+TEST(Metrics, SilentAndHalfSentClientsDoNotHoldTheEndpoint) {
+  auto served = Serve("r");
+  served->Counter("ragdoll_test_total", "t").Increment();
+  std::vector<int> held;
+  for (int i = 0; i < 20; ++i) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<uint16_t>(served->port()));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+    if (i % 2) {
+      ASSERT_EQ(write(fd, "GET /met", 8), 8);
+    }
+    held.push_back(fd);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const std::string page = HttpGet(served->port(), "/metrics");
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_NE(page.find("ragdoll_test_total{run=\"r\"} 1"), std::string::npos) << page;
+  EXPECT_LT(seconds, 1.0);  // not a benchmark: the old server took at least 2 s per held client
+  for (int fd : held) close(fd);
+}
+
 TEST(Metrics, AdvanceToOnlyRaisesACounter) {
   MetricsEndpoint m("test", "127.0.0.1", -1, "r");
   prometheus::Counter& c = m.Counter("ragdoll_test_total", "t");
@@ -116,6 +146,22 @@ TEST(MetricsConfig, ReadsAndChecksTheSection) {
       ConfigError);
   auto typo = ConfigSection::FromString("metrics:\n  learner_prot: 1\n", "m.yaml");
   EXPECT_THROW(ReadMetricsConfig(typo.Section("metrics")), ConfigError);
+  auto empty = ConfigSection::FromString("metrics:\n  bind: ''\n", "m.yaml");
+  EXPECT_THROW(ReadMetricsConfig(empty.Section("metrics")), ConfigError);
+}
+
+// Unset, the bind follows the broker: loopback for a training on one machine, every interface
+// when the broker is reached or listens beyond it; a configured bind always wins.
+TEST(MetricsConfig, TheBindFollowsTheBrokerUnlessSet) {
+  MetricsConfig unset;
+  EXPECT_EQ(ResolveMetricsBind(unset, "127.0.0.1", "127.0.0.1"), "127.0.0.1");
+  EXPECT_EQ(ResolveMetricsBind(unset, "localhost", "127.0.0.1"), "127.0.0.1");
+  EXPECT_EQ(ResolveMetricsBind(unset, "broker", "*"), "0.0.0.0");
+  EXPECT_EQ(ResolveMetricsBind(unset, "127.0.0.1", "*"), "0.0.0.0");
+  EXPECT_EQ(ResolveMetricsBind(unset, "10.0.0.5", "127.0.0.1"), "0.0.0.0");
+  MetricsConfig set;
+  set.bind = "10.1.2.3";
+  EXPECT_EQ(ResolveMetricsBind(set, "127.0.0.1", "127.0.0.1"), "10.1.2.3");
 }
 
 }  // namespace
