@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "actor/rollout.h"
+#include "common/blas.h"
 #include "common/metrics.h"
 #include "common/wire.h"
 
@@ -53,6 +54,7 @@ struct ActorMetrics {
 int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoints& endpoints,
              const std::atomic<bool>& stop) {
   at::set_num_threads(config.threads);
+  std::fprintf(stderr, "%s: %s\n", config.actor_id.c_str(), blas::Summary(true).c_str());
   RolloutWorker worker(env, config.environments, config.time_horizon, config.seed, config.actor_id);
   MetricsEndpoint endpoint(config.actor_id, config.metrics_bind, config.metrics_port, config.run_id,
                            {{"actor", config.actor_id}});

@@ -10,6 +10,7 @@
 //   ragdoll report RUN [RUN ...] --out FILE.html   curves, evaluation and a GIF of runs, one page
 //   ragdoll keygen [NAME]                CURVE keys for authenticated, encrypted transport
 //   ragdoll verify RUN_OR_CHECKPOINT...  checkpoints whole, loadable, finite
+//   ragdoll doctor [CONFIG]              this machine's limits and the training's ratios to them
 #include <signal.h>
 #include <CLI/CLI.hpp>
 
@@ -17,6 +18,7 @@
 #include <cstdio>
 #include <functional>
 
+#include "cli/doctor_command.h"
 #include "cli/eval_command.h"
 #include "cli/export_command.h"
 #include "cli/keygen_command.h"
@@ -27,6 +29,7 @@
 #include "cli/report_command.h"
 #include "cli/role_commands.h"
 #include "cli/verify_command.h"
+#include "common/blas.h"
 #include "common/config_section.h"
 
 namespace {
@@ -47,6 +50,7 @@ void InstallSignalHandlers() {
 
 int main(int argc, char** argv) {
   using namespace ragdoll;
+  blas::ChooseKernels(argv);  // may execute this program again, before anything else has run
   CLI::App app("ragdoll: train physics-simulated characters to imitate animation clips.");
   app.require_subcommand(1);
   // Each command adds itself; its callback runs it (exit code) or returns -1 when not chosen.
@@ -59,7 +63,8 @@ int main(int argc, char** argv) {
                                            cli::AddReportCommand(app),
                                            cli::AddKeygenCommand(app),
                                            cli::AddVerifyCommand(app),
-                                           cli::AddExportCommand(app)};
+                                           cli::AddExportCommand(app),
+                                           cli::AddDoctorCommand(app)};
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {

@@ -9,12 +9,23 @@
 #include <sstream>
 #include <utility>
 
+#include <time.h>
+
 #include "common/config_section.h"
 #include "learner/checkpoint_file.h"
 #include "learner/collectives.h"
 #include "learner/ppo.h"
 
 namespace ragdoll::learner {
+namespace {
+
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+}  // namespace
 
 void EpisodeStatsSum::Add(const v1::EpisodeSummary& e) {
   ++episodes;
@@ -321,6 +332,7 @@ int64_t Learner::NextVersion() {
 
 UpdateStats Learner::Update() {
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = ProcessCpuSeconds();
   const Rollout rollout = GatherBuffer();
   const Batch b = ComputeAdvantages(rollout);
 
@@ -349,6 +361,8 @@ UpdateStats Learner::Update() {
     }
   }
   FinishStatistics(b, steps_taken, minibatches.weight, stats);
+  stats.gflop = 6e-9 * static_cast<double>(trained_parameters()) *
+                static_cast<double>(steps_taken * minibatches.size);
 
   // The statistics change only after the update, so the update normalised observations exactly
   // as the actors did when they chose the actions.
@@ -364,6 +378,7 @@ UpdateStats Learner::Update() {
   buffer_.clear();
   buffered_samples_ = 0;
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats.cpu_seconds = ProcessCpuSeconds() - cpu_start;
   return stats;
 }
 

@@ -32,6 +32,8 @@ struct UpdateStats {
   double explained_variance = 0;
   double learning_rate = 0;
   double seconds = 0;
+  double cpu_seconds = 0;     // this process's CPU time during the update, on every thread
+  double gflop = 0;           // the gradient steps' forward and backward products (6 per weight)
   int64_t samples = 0;        // samples in this update
   int64_t skipped_steps = 0;  // gradient steps skipped for a non-finite gradient
 };

@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/blas.h"
 #include "common/config_section.h"
 #include "common/metrics.h"
 #include "common/wire.h"
@@ -335,6 +336,9 @@ ReplicaSettings ReadReplicaSettings(const ConfigSection& section) {
 int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop) {
   at::set_num_threads(trainer.threads);
+  const double sgemm_gflops = blas::SgemmGflops();
+  std::fprintf(stderr, "learner: %s; sgemm %.0f GFLOP/s on one thread\n",
+               blas::Summary(false).c_str(), sgemm_gflops);
   // Past a file size limit (RLIMIT_FSIZE) a write fails with EFBIG instead of killing us: a
   // checkpoint that does not fit is a logged failure, not a crash.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -355,6 +359,7 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
 
   MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
   TrainingLog log(endpoint, config.run_dir, config.label, leader, learner, config.reward_terms);
+  log.CompareUpdatesWith(sgemm_gflops);
   // A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
   // the earlier ones stay, none is deleted for it, and training goes on.
   auto save = [&](const char* why) {

@@ -10,6 +10,11 @@ namespace ragdoll::learner {
 namespace fs = std::filesystem;
 namespace {
 
+// An update whose products run below this share of the start-up sgemm figure per CPU-second is
+// far below the machine (the shipped configs run 0.4-0.9 of it: docs/benchmarks.md).
+constexpr double kSlowUpdate = 0.2;
+constexpr int64_t kSlowWarnEvery = 50;  // updates between repeated warnings
+
 std::string Duration(double seconds) {
   if (!(seconds >= 0) || seconds > 1e8) return "--:--:--";
   long s = static_cast<long>(seconds);
@@ -114,7 +119,12 @@ struct LearnerMetrics {
                                       "Checkpoints that could not be written (full disk, file size "
                                       "limit); training went on")),
         idle_seconds(m.Counter("ragdoll_learner_idle_seconds_total",
-                               "Wall time spent waiting for segments (nothing to do)")) {
+                               "Wall time spent waiting for segments (nothing to do)")),
+        update_gflops(m.Gauge("ragdoll_learner_update_gflops",
+                              "The last update's matrix products (6 per weight per sample) per "
+                              "CPU-second of this process")),
+        sgemm_gflops(m.Gauge("ragdoll_blas_sgemm_gflops",
+                             "One-thread sgemm rate measured at start-up: the BLAS's limit")) {
     for (int i = 0; i < static_cast<int>(figure_names.size()); ++i) {
       figures.push_back(
           i < reward_terms
@@ -144,6 +154,7 @@ struct LearnerMetrics {
   prometheus::Gauge &run_samples, &samples_per_second, &version;
   prometheus::Histogram& lag;
   prometheus::Counter &stale, &checkpoints, &checkpoint_failures, &idle_seconds;
+  prometheus::Gauge &update_gflops, &sgemm_gflops;
   std::vector<prometheus::Gauge*> figures;     // as the learner's figure names
   std::vector<prometheus::Counter*> rejected;  // index: Rejection - 1
 };
@@ -231,6 +242,22 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
   metrics.learning_rate.Set(u.learning_rate);
   metrics.updates.Increment();
   metrics.update_seconds.Observe(u.seconds);
+  if (u.cpu_seconds > 0) {
+    const double gflops = u.gflop / u.cpu_seconds;
+    metrics.update_gflops.Set(gflops);
+    // The first updates warm caches and the allocator: judged from the third on.
+    if (sgemm_gflops_ > 0 && learner.iterations() >= 3 && gflops < kSlowUpdate * sgemm_gflops_) {
+      if (slow_updates_++ % kSlowWarnEvery == 0) {
+        std::fprintf(stderr,
+                     "learner: warning: the update's products ran %.1f GFLOP/s per CPU-second, "
+                     "%.2f of this machine's sgemm (%.0f): a generic BLAS kernel or more threads "
+                     "than cores? `ragdoll doctor` measures both halves\n",
+                     gflops, gflops / sgemm_gflops_, sgemm_gflops_);
+      }
+    } else {
+      slow_updates_ = 0;
+    }
+  }
   metrics.skipped_steps.Increment(static_cast<double>(u.skipped_steps));
   if (leader) metrics.samples.Increment(static_cast<double>(u.samples));
   metrics.run_samples.Set(static_cast<double>(learner.samples()));
@@ -265,6 +292,11 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
     csv << MetricsRow(csv_columns_, row) << "\n";
     csv.flush();
   }
+}
+
+void TrainingLog::CompareUpdatesWith(double sgemm_gflops) {
+  sgemm_gflops_ = sgemm_gflops;
+  metrics_->sgemm_gflops.Set(sgemm_gflops);
 }
 
 void TrainingLog::CheckpointWritten(const char* why, const std::string& path) {

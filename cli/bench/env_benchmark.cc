@@ -20,6 +20,8 @@
 #include "actor/sim/env_config.h"
 #include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_set.h"
+#include "cli/measure.h"
+#include "common/blas.h"
 #include "common/config_section.h"
 #include "common/median.h"
 
@@ -46,62 +48,8 @@ Experiment LoadExperiment(const std::string& path) {
   return e;
 }
 
-// One recorded environment run: the controls of every step and the states it reset to.
-struct Recording {
-  std::vector<float> actions;     // steps x action_size
-  std::vector<double> controls;   // steps x nu
-  std::vector<int> reset_before;  // 1 where the step follows a reset
-  std::vector<double> reset_qpos, reset_qvel;
-};
-
-Recording Record(const Experiment& e, int steps, uint64_t seed) {
-  ImitationEnv env(e.character, e.motions, e.config, seed);
-  const mjModel* m = e.character->model();
-  const int na = env.spec().action_size;
-  std::vector<float> obs(env.spec().observation_size), action(na);
-  Recording r;
-  env.Reset(obs.data());
-  bool reset = true;
-  for (int i = 0; i < steps; ++i) {
-    if (reset) {
-      r.reset_qpos.insert(r.reset_qpos.end(), env.data().qpos, env.data().qpos + m->nq);
-      r.reset_qvel.insert(r.reset_qvel.end(), env.data().qvel, env.data().qvel + m->nv);
-    }
-    r.reset_before.push_back(reset ? 1 : 0);
-    env.ReferenceAction(action.data());
-    r.actions.insert(r.actions.end(), action.begin(), action.end());
-    StepResult s = env.Step(action.data(), obs.data());
-    r.controls.insert(r.controls.end(), env.data().ctrl, env.data().ctrl + m->nu);
-    reset = s.terminated || s.truncated;
-    if (reset) env.Reset(obs.data());
-  }
-  return r;
-}
-
-// Physics steps per second of plain mj_step replaying the recording.
-double RawPhysicsRate(const Experiment& e, const Recording& r) {
-  const mjModel* m = e.character->model();
-  DataPtr d = e.character->MakeData();
-  const int steps = static_cast<int>(r.reset_before.size());
-  int resets = 0;
-  auto start = Clock::now();
-  for (int i = 0; i < steps; ++i) {
-    if (r.reset_before[i]) {
-      mj_resetData(m, d.get());
-      std::copy_n(r.reset_qpos.data() + resets * m->nq, m->nq, d->qpos);
-      std::copy_n(r.reset_qvel.data() + resets * m->nv, m->nv, d->qvel);
-      mj_forward(m, d.get());
-      ++resets;
-    }
-    std::copy_n(r.controls.data() + i * m->nu, m->nu, d->ctrl);
-    for (int s = 0; s < e.config.substeps; ++s) mj_step(m, d.get());
-  }
-  double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  return steps * e.config.substeps / seconds;
-}
-
 // Control steps per second of K environments in lockstep, each replaying the recording.
-double EnvRate(const Experiment& e, const Recording& r, int k, uint64_t seed) {
+double EnvRate(const Experiment& e, const bench::Recording& r, int k, uint64_t seed) {
   std::vector<std::unique_ptr<ImitationEnv>> envs;
   for (int i = 0; i < k; ++i) {
     envs.push_back(std::make_unique<ImitationEnv>(e.character, e.motions, e.config, seed));
@@ -156,6 +104,7 @@ Baseline RunBaseline(const Experiment& e, int episodes, uint64_t seed) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  ragdoll::blas::ChooseKernels(argv);
   CLI::App app("Environment throughput against raw MuJoCo, and no-learning baselines.");
   std::vector<std::string> configs;
   int steps = 1000, repeats = 11, episodes = 50;
@@ -181,12 +130,12 @@ int main(int argc, char** argv) {
         std::vector<double> raw;
         std::vector<std::vector<double>> env(3), ratio(3);
         for (int rep = 0; rep < repeats; ++rep) {
-          Recording r1 = Record(e, steps, 1);
-          raw.push_back(RawPhysicsRate(e, r1));
+          bench::Recording r1 = bench::Record(e.config, e.character, e.motions, steps, 1);
+          raw.push_back(bench::RawPhysicsRate(*e.character, e.config.substeps, r1));
           for (int i = 0; i < 3; ++i) {
             // Each of the K environments replays the same recording (same seed, same actions),
             // so all do the same physics as the raw loop.
-            Recording rk = r1;
+            bench::Recording rk = r1;
             std::vector<float> actions;
             for (int t = 0; t < steps / ks[i]; ++t) {
               actions.insert(
@@ -197,7 +146,7 @@ int main(int argc, char** argv) {
             rk.actions = actions;
             rk.reset_before.resize(static_cast<size_t>(steps / ks[i]) * ks[i]);
             env[i].push_back(EnvRate(e, rk, ks[i], 1));
-            double raw_again = RawPhysicsRate(e, r1);
+            double raw_again = bench::RawPhysicsRate(*e.character, e.config.substeps, r1);
             double bound_here = 0.5 * (raw.back() + raw_again) / e.config.substeps;
             ratio[i].push_back(env[i].back() / bound_here);
           }

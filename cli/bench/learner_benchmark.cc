@@ -25,6 +25,8 @@
 
 #include "actor/sim/imitation_env.h"
 #include "cli/experiment.h"
+#include "cli/measure.h"
+#include "common/blas.h"
 #include "common/median.h"
 #include "learner/learner.h"
 #include "learner/replica_group.h"
@@ -39,29 +41,6 @@ void PinToCore(int core) {
   CPU_ZERO(&set);
   CPU_SET(core % static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN))), &set);
   sched_setaffinity(0, sizeof(set), &set);
-}
-
-// Fills the learner's buffer (its share, for a replica) with synthetic segments of the right
-// sizes: an update's cost does not depend on the values.
-void Fill(learner::Learner& l, int T, int O, int A, std::mt19937& rng) {
-  std::normal_distribution<float> g(0, 1);
-  std::vector<float> obs((T + 1) * O), act(T * A), logp(T, -30.0f), rew(T);
-  std::vector<uint8_t> flags(T, 0);
-  while (!l.Ready()) {
-    for (float& x : obs) x = g(rng);
-    for (float& x : act) x = 0.3f * g(rng);
-    for (float& x : rew) x = 0.5f + 0.1f * g(rng);
-    v1::TrajectorySegment s;
-    s.set_policy_version(l.version());
-    *s.mutable_observations() = wire::FloatTensor(obs.data(), {T + 1, O});
-    *s.mutable_actions() = wire::FloatTensor(act.data(), {T, A});
-    *s.mutable_log_probs() = wire::FloatTensor(logp.data(), {T});
-    *s.mutable_rewards() = wire::FloatTensor(rew.data(), {T});
-    *s.mutable_terminated() = wire::ByteTensor(flags.data(), {T});
-    *s.mutable_truncated() = wire::ByteTensor(flags.data(), {T});
-    *s.mutable_final_observations() = wire::FloatTensor(obs.data(), {0, O});
-    l.Add(s);
-  }
 }
 
 // One replica of a group: `repeats` updates after one to warm up; rank 0 prints the median of
@@ -82,7 +61,7 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
   std::mt19937 rng(static_cast<unsigned>(1 + rank));
   std::vector<double> rates;
   for (int r = 0; r <= repeats; ++r) {
-    Fill(l, c.time_horizon, O, A, rng);
+    bench::FillWithSyntheticSegments(l, c.time_horizon, O, A, rng);
     l.AgreeToUpdate(false);
     learner::UpdateStats u = l.Update();
     if (r > 0) rates.push_back(static_cast<double>(u.samples) * c.num_epoch / u.seconds);
@@ -155,6 +134,7 @@ GroupFigures RunGroup(const std::string& config, int replicas, int port, int rep
 }  // namespace
 
 int main(int argc, char** argv) {
+  blas::ChooseKernels(argv);
   CLI::App app("PPO update samples/s vs raw libtorch forward+backward+Adam.");
   std::string config;
   int repeats = 5, threads = 1, replicas = 1, port = 29560, rank = -1;
@@ -178,62 +158,28 @@ int main(int argc, char** argv) {
       threads = 1;
     }
     at::set_num_threads(threads);
+    std::printf("%s\n", blas::Summary(true).c_str());
     const learner::TrainerConfig& c = e.trainer;
-    const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
-    const int O = spec.observation_size, A = spec.action_size;
-    const int T = c.time_horizon;
-    learner::Learner l(c, O, A);
-    std::mt19937 rng(1);
-
-    // Raw libtorch on networks of the same shapes.
-    GaussianPolicy policy(O, A, c.network);
-    ValueNetwork critic(O, c.network);
-    std::vector<torch::Tensor> params = policy->parameters();
-    for (const auto& p : critic->parameters()) params.push_back(p);
-    torch::optim::Adam adam(params, torch::optim::AdamOptions(c.learning_rate));
-    const int64_t B = (c.buffer_size + T - 1) / T * T;
-    const int64_t mb = std::min(c.batch_size, B);
-    const int64_t steps = c.num_epoch * (B / mb);
-    torch::Tensor x = torch::randn({mb, O}), ya = torch::randn({mb, A}), yv = torch::randn({mb});
-
-    std::vector<double> ppo, raw, ratio;
-    for (int r = 0; r < repeats; ++r) {
-      Fill(l, T, O, A, rng);
-      learner::UpdateStats u = l.Update();
-      double ppo_rate = static_cast<double>(u.samples) * c.num_epoch / u.seconds;
-      auto t0 = Clock::now();
-      for (int64_t s = 0; s < steps; ++s) {
-        adam.zero_grad();
-        torch::Tensor loss =
-            (policy->forward(x) - ya).pow(2).mean() + (critic->forward(x) - yv).pow(2).mean();
-        loss.backward();
-        adam.step();
-      }
-      double raw_rate = static_cast<double>(steps * mb) /
-                        std::chrono::duration<double>(Clock::now() - t0).count();
-      ppo.push_back(ppo_rate);
-      raw.push_back(raw_rate);
-      ratio.push_back(ppo_rate / raw_rate);
-    }
+    const bench::LearnerFigures f = bench::MeasureLearner(e, repeats);
+    const int64_t B = f.buffer, mb = f.minibatch;
     std::printf(
         "learner (%s, buffer %lld, minibatch %lld, %d epochs, network %d x %zu, %d "
         "thread%s, median of %d):\n",
         config.c_str(), static_cast<long long>(B), static_cast<long long>(mb), c.num_epoch,
         c.network.hidden_units.front(), c.network.hidden_units.size(), threads,
         threads == 1 ? "" : "s", repeats);
-    std::printf("  raw libtorch fwd+bwd+Adam  %8.0f samples/s\n", Median(raw));
-    std::printf("  PPO update (per epoch)     %8.0f samples/s  ratio %.3f\n", Median(ppo),
-                Median(ratio));
+    std::printf("  raw libtorch fwd+bwd+Adam  %8.0f samples/s\n", f.raw);
+    std::printf("  PPO update (per epoch)     %8.0f samples/s  ratio %.3f\n", f.update, f.ratio);
     if (replicas > 1) {
       GroupFigures g = RunGroup(config, replicas, port, repeats);
       const double group = g.samples_per_second;
       std::printf(
           "  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (%.2f per "
           "replica)\n",
-          replicas, group, group / Median(ppo), group / Median(ppo) / replicas);
+          replicas, group, group / f.update, group / f.update / replicas);
       // What one replica's share of a gradient step (1/N of the minibatch) takes a single
       // learner, overheads of the update included.
-      const double step = static_cast<double>(mb) / replicas / Median(ppo);
+      const double step = static_cast<double>(mb) / replicas / f.update;
       std::printf(
           "  gradient all-reduce alone    %8.2f ms for %lld floats; 1/%d of a minibatch takes "
           "one learner %.1f ms (%.0f %%)\n",
