@@ -90,7 +90,7 @@ int RunDoctor(const std::string& config, bool quick, const std::string& json_pat
                  {"reason", blas::Decide(env, library.kernel, cpu).reason}};
 
   // Each kernel set the CPU could run, and the library's own choice, timed alike.
-  const double running_gflops = blas::SgemmGflops();
+  const double running_gflops = blas::SgemmGflops(1024, 512, 512, 5);
   std::vector<KernelFigure> kernels;
   if (library.openblas) {
     std::vector<std::string> asks = {""};
@@ -151,8 +151,10 @@ int RunDoctor(const std::string& config, bool quick, const std::string& json_pat
     const double absorbed = learner.update / epochs;  // buffer samples per second
     std::printf(
         "learner: PPO update %.0f samples/s per epoch, %.2f of raw libtorch "
-        "forward+backward+Adam (%.0f); %d epochs: %.0f new samples/s\n",
-        learner.update, learner.ratio, learner.raw, epochs, absorbed);
+        "forward+backward+Adam (%.0f); %d epochs: %.0f new samples/s; its products %.0f "
+        "GFLOP/s, %.2f of sgemm\n",
+        learner.update, learner.ratio, learner.raw, epochs, absorbed, learner.gflops,
+        learner.gflops / running_gflops);
     // A sample costs 1/actor seconds of an actor's core and epochs/update of the learner's; on
     // `cores` cores shared by both, no training of this config trains faster than this.
     const double bound = cores / (1 / actor.with_policy + 1 / absorbed);
@@ -171,6 +173,8 @@ int RunDoctor(const std::string& config, bool quick, const std::string& json_pat
     out["learner"] = {{"update_samples_per_second_per_epoch", learner.update},
                       {"raw_samples_per_second", learner.raw},
                       {"ratio_to_raw", learner.ratio},
+                      {"gflops", learner.gflops},
+                      {"share_of_sgemm", learner.gflops / running_gflops},
                       {"epochs", epochs}};
     out["bound_samples_per_second"] = bound;
     if (learner.ratio < 0.8) {

@@ -216,6 +216,7 @@ LearnerFigures MeasureLearner(const cli::Experiment& e, int repeats) {
   f.update = Median(update);
   f.raw = Median(raw);
   f.ratio = Median(ratio);
+  f.gflops = 6e-9 * static_cast<double>(l.trained_parameters()) * f.update;
   return f;
 }
 

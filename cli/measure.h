@@ -56,6 +56,7 @@ struct LearnerFigures {
   double update = 0;  // PPO update samples/s per epoch
   double raw = 0;     // raw libtorch fwd+bwd+Adam samples/s on minibatches of the same size
   double ratio = 0;   // median of update / raw
+  double gflops = 0;  // the update's matrix products (6 per weight per sample) per second
   int64_t buffer = 0, minibatch = 0;
 };
 
