@@ -13,6 +13,7 @@
 #include "motion/clip_report.h"
 #include "motion/foot_cleanup.h"
 #include "motion/retarget.h"
+#include "motion/root_motion.h"
 #include "motion/scene_import.h"
 
 namespace ragdoll::cli {
@@ -21,10 +22,10 @@ namespace {
 struct MotionOptions {
   std::string input, output, mapping = "auto", animation, feet = "floor", bvh_reader = "ragdoll",
                              naming = "ragdoll", order = "ZXY", units = "m", up = "y", character,
-                             json;
+                             json, root_motion = "auto";
   motion::ImportOptions import;
   bool inspect_after = true;
-  bool fix_feet = false;
+  int fix_feet = -1;  // -1: when the clip needs it; 0: never (--no-fix-feet); 1: always
 };
 
 std::string CharacterPath(const std::string& given) {
@@ -45,23 +46,39 @@ int Import(const MotionOptions& o) {
   options.feet =
       o.feet == "rest" ? motion::ImportOptions::Feet::kRest : motion::ImportOptions::Feet::kFloor;
   sim::MotionClip clip = motion::Retarget(source, mapping, *character, options, &notes);
-  if (o.fix_feet) {
+  motion::RootMotionReport root;
+  clip = motion::ReconstructRootMotion(clip, *character, motion::ParseRootMotion(o.root_motion),
+                                       &root);
+  if (o.root_motion != "keep") notes.push_back(root.Summary());
+  if (o.fix_feet != 0) {
     motion::FootCleanupReport fixed;
-    clip = motion::FixFeet(clip, *character, motion::FootCleanupOptions{}, &fixed);
-    char line[400];
-    std::snprintf(line, sizeof(line),
-                  "fix-feet: %d right and %d left plants (%.0f %% / %.0f %% of frames) put on "
-                  "the floor and held still; the feet were %.1f / %.1f cm above it at their "
-                  "lowest; largest ankle move %.1f cm, pelvis lowered up to %.1f cm",
-                  fixed.plants[0], fixed.plants[1], 100 * fixed.planted_fraction[0],
-                  100 * fixed.planted_fraction[1], 100 * fixed.float_height[0],
-                  100 * fixed.float_height[1], 100 * fixed.max_correction, 100 * fixed.max_drop);
-    notes.push_back(line);
-    if (fixed.missed_frames > 0) {
+    sim::MotionClip cleaned =
+        motion::FixFeet(clip, *character, motion::FootCleanupOptions{}, &fixed);
+    char line[480];
+    if (o.fix_feet == 1 || fixed.Needed()) {
+      clip = std::move(cleaned);
       std::snprintf(line, sizeof(line),
-                    "fix-feet: warning: in %d frames a leg cannot reach its planted foot (up to "
-                    "%.1f cm short: the foot is beyond the ankle's range)",
-                    fixed.missed_frames, 100 * fixed.max_miss);
+                    "feet cleaned up%s: %d right and %d left plants (%.0f %% / %.0f %% of frames) "
+                    "put on the floor and held still; the feet were %.1f / %.1f cm above it at "
+                    "their lowest; largest ankle move %.1f cm, pelvis lowered up to %.1f cm%s",
+                    o.fix_feet == 1 ? " (--fix-feet)" : "", fixed.plants[0], fixed.plants[1],
+                    100 * fixed.planted_fraction[0], 100 * fixed.planted_fraction[1],
+                    100 * fixed.float_height[0], 100 * fixed.float_height[1],
+                    100 * fixed.max_correction, 100 * fixed.max_drop,
+                    o.fix_feet == 1 ? "" : " (--no-fix-feet: as they came)");
+      notes.push_back(line);
+      if (fixed.missed_frames > 0) {
+        std::snprintf(line, sizeof(line),
+                      "feet: warning: in %d frames a leg cannot reach its planted foot (up to "
+                      "%.1f cm short: the foot is beyond the ankle's range)",
+                      fixed.missed_frames, 100 * fixed.max_miss);
+        notes.push_back(line);
+      }
+    } else {
+      std::snprintf(line, sizeof(line),
+                    "feet: left as they came: planted feet already on the floor and still (a "
+                    "clean-up would move an ankle %.1f cm at most)",
+                    100 * fixed.max_correction);
       notes.push_back(line);
     }
   }
@@ -146,45 +163,58 @@ std::function<int()> AddMotionCommands(CLI::App& app) {
   import->add_option("--last", o->import.last_frame, "last frame to use (default: the last)");
   import->add_option("--fps", o->import.fps, "resample to this frame rate")
       ->check(CLI::PositiveNumber);
-  import->add_flag("--fix-feet", o->fix_feet,
-                   "clean up: solve the legs so that planted feet stand on the floor and hold "
-                   "still, the pelvis lowered where a leg cannot reach");
-  import->add_flag("--mirror", o->import.mirror, "swap left and right");
-  import->add_flag("--loop", o->import.loop, "mark the clip as looping");
+  auto* fix = import->add_flag_callback(
+      "--fix-feet", [o] { o->fix_feet = 1; },
+      "clean up the feet even where the clip does not need it (by default the import does when "
+      "planted feet float, sink or slide on the character): solve the legs so that planted feet "
+      "stand on the floor and hold still, the pelvis lowered where a leg cannot reach");
   import
-      ->add_option("--scale", o->import.scale, "metres per BVH unit (default: from the leg length)")
-      ->check(CLI::PositiveNumber);
-  import->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+      ->add_flag_callback(
+          "--no-fix-feet", [o] { o->fix_feet = 0;
+}, "keep the feet as the retarget leaves them")
+      ->excludes(fix);
+import
+    ->add_option("--root-motion", o->root_motion,
+                 "auto: rebuild the root's travel from the planted feet when the clip was "
+                 "exported in place (feet sliding under a root that stays put); feet: always; "
+                 "keep: never")
+    ->check(CLI::IsMember({"auto", "feet", "keep"}))
+    ->capture_default_str();
+import->add_flag("--mirror", o->import.mirror, "swap left and right");
+import->add_flag("--loop", o->import.loop, "mark the clip as looping");
+import->add_option("--scale", o->import.scale, "metres per BVH unit (default: from the leg length)")
+    ->check(CLI::PositiveNumber);
+import->add_option("--character", o->character, "character MJCF (default: the shipped one)");
 
-  auto* exporter = motion->add_subcommand("export", "write a clip as BVH (for Blender, Maya...)");
-  exporter->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  exporter->add_option("--out", o->output, "BVH file to write")->required();
-  exporter->add_option("--naming", o->naming, "joint names: a mapping preset or YAML file")
-      ->capture_default_str();
-  exporter->add_option("--order", o->order, "rotation channel order")->capture_default_str();
-  exporter->add_option("--units", o->units, "m or cm")
-      ->check(CLI::IsMember({"m", "cm"}))
-      ->capture_default_str();
-  exporter->add_option("--up", o->up, "y or z")
-      ->check(CLI::IsMember({"y", "z"}))
-      ->capture_default_str();
-  exporter->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+auto* exporter = motion->add_subcommand("export", "write a clip as BVH (for Blender, Maya...)");
+exporter->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
+    ->required()
+    ->check(CLI::ExistingFile);
+exporter->add_option("--out", o->output, "BVH file to write")->required();
+exporter->add_option("--naming", o->naming, "joint names: a mapping preset or YAML file")
+    ->capture_default_str();
+exporter->add_option("--order", o->order, "rotation channel order")->capture_default_str();
+exporter->add_option("--units", o->units, "m or cm")
+    ->check(CLI::IsMember({"m", "cm"}))
+    ->capture_default_str();
+exporter->add_option("--up", o->up, "y or z")
+    ->check(CLI::IsMember({"y", "z"}))
+    ->capture_default_str();
+exporter->add_option("--character", o->character, "character MJCF (default: the shipped one)");
 
-  auto* inspect = motion->add_subcommand("inspect", "timing, travel, foot contact, problems");
-  inspect->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  inspect->add_option("--json", o->json, "also write the report as JSON");
-  inspect->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+auto* inspect = motion->add_subcommand("inspect", "timing, travel, foot contact, problems");
+inspect->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
+    ->required()
+    ->check(CLI::ExistingFile);
+inspect->add_option("--json", o->json, "also write the report as JSON");
+inspect->add_option("--character", o->character, "character MJCF (default: the shipped one)");
 
-  return [=]() -> int {
-    if (!*motion) return -1;
-    if (*import) return Import(*o);
-    if (*exporter) return Export(*o);
-    return Inspect(*o);
-  };
-}
+return [=]() -> int {
+  if (!*motion) return -1;
+  if (*import) return Import(*o);
+  if (*exporter) return Export(*o);
+  return Inspect(*o);
+};
+}  // namespace ragdoll::cli
 
 }  // namespace ragdoll::cli

@@ -36,6 +36,12 @@ struct FootCleanupReport {
   double max_drop = 0;    // m: the most the pelvis came down for the legs to reach
   double max_miss = 0;    // m: the largest distance a solved ankle stays from its target
   int missed_frames = 0;  // frames where some foot stays more than 1 cm from its target
+
+  // Whether the clip needed it: some ankle moved more than `kNeededCorrection`. Below that the
+  // feet already stand and hold still (a clip made for the character, a careful capture), and
+  // `motion import` keeps the clip exactly as it came.
+  static constexpr double kNeededCorrection = 0.01;  // m
+  bool Needed() const { return max_correction > kNeededCorrection; }
 };
 
 // The clip with its feet fixed; `report` (optional) says what was done. The clip's floor is

@@ -401,9 +401,56 @@ void AlignHingesWithMotion(const SourceOnCharacter& view, const Character& chara
 // their lowest, toe nearly still), so that a foot flat on the floor in the capture is flat on
 // the character's floor: the alignment that makes the character's foot level in those frames,
 // keeping the heading the rest alignment gives it.
+// A toe moving faster than this (m/s) is not planted.
+constexpr double kPlantedToeSpeed = 0.3;
+
+// The horizontal velocity of the frames' low toes, per component the median over both feet
+// (`low`: the toe and ankle within 3 cm of their floors). Zero for a clip whose planted feet
+// stand still; the walking speed backward for one exported in place (a treadmill).
+Vec3 TreadmillVelocity(const SourceOnCharacter& view, int first, int last, double scale) {
+  const SkeletonAnimation& source = view.source();
+  const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
+  std::vector<double> vx, vy;
+  for (const char* side : {"right_", "left_"}) {
+    const std::string ankle = std::string(side) + "ankle";
+    const int toe = view.BoneEnd(ankle, std::string(side) + "toe");
+    if (!view.has(ankle) || toe < 0 || last <= first) continue;
+    const int a = view.joint(ankle);
+    auto height = [&](int f, int j) {
+      return view.InCharacter(source.frames[f][j].position)[2] * scale;
+    };
+    std::vector<double> toe_heights, ankle_heights;
+    for (int f = first; f <= last; ++f) {
+      toe_heights.push_back(height(f, toe));
+      ankle_heights.push_back(height(f, a));
+    }
+    std::sort(toe_heights.begin(), toe_heights.end());
+    std::sort(ankle_heights.begin(), ankle_heights.end());
+    const double toe_min = toe_heights[toe_heights.size() / 100];
+    const double ankle_min = ankle_heights[ankle_heights.size() / 100];
+    for (int f = first; f < last; ++f) {
+      if (height(f, toe) > toe_min + 0.03 || height(f, a) > ankle_min + 0.03) continue;
+      const Vec3 step = Scale(Sub(view.InCharacter(source.frames[f + 1][toe].position),
+                                  view.InCharacter(source.frames[f][toe].position)),
+                              scale / dt);
+      vx.push_back(step[0]);
+      vy.push_back(step[1]);
+    }
+  }
+  if (vx.empty()) return {0, 0, 0};
+  std::nth_element(vx.begin(), vx.begin() + vx.size() / 2, vx.end());
+  std::nth_element(vy.begin(), vy.begin() + vy.size() / 2, vy.end());
+  return {vx[vx.size() / 2], vy[vy.size() / 2], 0};
+}
+
 void LevelFeet(const SourceOnCharacter& view, int first, int last, double scale,
                SegmentAlignments* aligned, std::vector<std::string>* warnings) {
   const SkeletonAnimation& source = view.source();
+  // Planted toes are still against the floor, or, in a clip exported in place, against the
+  // treadmill its planted feet slide on: toe speeds are measured against that when it moves
+  // faster than a planted toe may (any other clip keeps zero).
+  Vec3 treadmill = TreadmillVelocity(view, first, last, scale);
+  if (std::hypot(treadmill[0], treadmill[1]) <= kPlantedToeSpeed) treadmill = {0, 0, 0};
   for (const char* side : {"right_", "left_"}) {
     const std::string ankle = std::string(side) + "ankle";
     const int s = ankle[0] == 'r' ? 5 : 10;
@@ -432,7 +479,8 @@ void LevelFeet(const SourceOnCharacter& view, int first, int last, double scale,
       Vec3 step = Scale(Sub(view.InCharacter(source.frames[g][toe].position),
                             view.InCharacter(source.frames[f][toe].position)),
                         scale);
-      if (std::hypot(step[0], step[1]) / dt > 0.3) continue;  // the toe slides or swings
+      const double slide = std::hypot(step[0] / dt - treadmill[0], step[1] / dt - treadmill[1]);
+      if (slide > kPlantedToeSpeed) continue;  // the toe slides or swings
       const Quat world = view.WorldAt(f, a);
       const Quat level = HeadingOf(Multiply(world, aligned->alignment[s]));
       Quat candidate = Normalized(Multiply(Conjugate(world), level));

@@ -3,7 +3,8 @@
 #  - real captures (tests/data/mocap: CMU's cgspeed naming, the LeftHip/LeftCollar naming) with
 #    --map auto: the mapping it prints, and foot contact, sliding and joint-limit figures with the
 #    feet aligned from the rest pose, levelled on their planted frames, and cleaned up by
-#    --fix-feet (also on DeepMimic's walk with longer shins and capture jitter);
+#    --fix-feet (also on DeepMimic's walk with longer shins and capture jitter), and by default
+#    only where the clip needs it;
 #  - the same captures and DeepMimic's captured walk converted by Blender to FBX (binary), glTF
 #    (GLB) and COLLADA: each imports to the same clip as the BVH (rotation and root errors);
 #  - truncated and garbled copies of each format: exit code 2, the file named, nothing written.
@@ -55,8 +56,8 @@ PY
 # 1. Real captures: the mapping auto chooses, and the feet before and after levelling.
 declare -A scheme=([01_01]="CMU (Hips, LeftUpLeg, LeftArm...)" [Boxing_Toes]="CMU (Hips, LeftHip, LeftShoulder...)")
 for name in 01_01 Boxing_Toes; do
-  import_clip "$mocap/$name.bvh" "$work/$name.rest.json" --feet rest
-  import_clip "$mocap/$name.bvh" "$work/$name.json"
+  import_clip "$mocap/$name.bvh" "$work/$name.rest.json" --feet rest --no-fix-feet
+  import_clip "$mocap/$name.bvh" "$work/$name.json" --no-fix-feet
   grep -q "^mapping auto: ${scheme[$name]}: root=Hips" "$work/$name.json.err" ||
     fail "$name: mapping: $(grep mapping "$work/$name.json.err")"
   echo "$name: $(grep '^mapping auto' "$work/$name.json.err")"
@@ -75,7 +76,7 @@ for name in 01_01 Boxing_Toes; do
   import_clip "$mocap/$name.bvh" "$work/$name.fixed.json" --fix-feet
   frames=$(sed -n 's/.*: \([0-9]*\) frames at.*/\1/p' "$work/$name.fixed.json.err")
   echo "$name --fix-feet: contact $(field "$work/$name.fixed.json" "foot contact"); sliding $(field "$work/$name.fixed.json" foot_sliding); joint limits $(field "$work/$name.fixed.json" joint_limit); penetration $(field "$work/$name.fixed.json" penetration)"
-  grep "^fix-feet" "$work/$name.fixed.json.err"
+  grep "^feet cleaned up (--fix-feet)" "$work/$name.fixed.json.err" || fail "$name: no clean-up note"
 done
 # 01_01 (jumps and walking about): both feet on the floor a quarter of the time or more, planted
 # feet sliding in under 1 % of frames, no leg beyond its range.
@@ -87,19 +88,36 @@ count = lambda kind: int(re.search(r"^%s +(\d+) frame" % kind, t, re.M).group(1)
 sys.exit(0 if right >= 25 and left >= 25 and count("foot_sliding") < 0.01 * 2752 and count("joint_limit") == 0 else 1)
 PY
 
+# 1c. By default the import cleans the feet when the clip needs it, and only then: the captures
+# come out as with --fix-feet; the shipped walk, written as BVH by `motion export` (its planted
+# feet already still on the floor), comes back exactly as --no-fix-feet gives it.
+for name in 01_01 Boxing_Toes; do
+  import_clip "$mocap/$name.bvh" "$work/$name.default.json"
+  grep -q "^feet cleaned up: " "$work/$name.default.json.err" ||
+    fail "$name: the default import did not clean the feet: $(grep feet "$work/$name.default.json.err")"
+  cmp -s "$work/$name.default.json" "$work/$name.fixed.json" || fail "$name: default differs from --fix-feet"
+done
+"$ragdoll" motion export "$here/../../assets/motions/walk.json" --out "$work/walk.bvh" 2> /dev/null ||
+  fail "export walk"
+import_clip "$work/walk.bvh" "$work/walk.default.json" --loop
+import_clip "$work/walk.bvh" "$work/walk.asis.json" --loop --no-fix-feet
+grep "^feet: left as they came" "$work/walk.default.json.err" ||
+  fail "walk: $(grep feet "$work/walk.default.json.err")"
+cmp -s "$work/walk.default.json" "$work/walk.asis.json" || fail "walk: the default import changed a clean clip"
+
 # 2. DeepMimic's captured walk and run as BVH with CMU names (Y up, cm), as a user exports them.
 for clip in walk run; do
   "$ragdoll" motion export "$deepmimic/humanoid3d_$clip.txt" --out "$work/dm_$clip.bvh" \
     --naming cmu --units cm --up y 2> /dev/null || fail "export $clip"
   "$ragdoll" motion inspect "$deepmimic/humanoid3d_$clip.txt" > "$work/dm_$clip.original.txt" || fail "inspect"
-  import_clip "$work/dm_$clip.bvh" "$work/dm_$clip.json"
+  import_clip "$work/dm_$clip.bvh" "$work/dm_$clip.json" --no-fix-feet
   echo "DeepMimic $clip: original contact $(grep '^foot contact' "$work/dm_$clip.original.txt" | sed 's/^foot contact *//'), sliding $(grep '^foot_sliding' "$work/dm_$clip.original.txt" | sed 's/^foot_sliding *//'); imported: contact $(field "$work/dm_$clip.json" "foot contact"), sliding $(field "$work/dm_$clip.json" foot_sliding), joint limits $(field "$work/dm_$clip.json" joint_limit)"
 done
 
 # 2b. The walk made imperfect as captures are (shins 15 % longer than the performer's, 0.3 degree
 # jitter on every rotation channel), imported as it is and with --fix-feet.
 python3 "$here/bvh_distort.py" "$work/dm_walk.bvh" "$work/dm_walk_rough.bvh" 1.15 0.3 1 || fail "distort"
-import_clip "$work/dm_walk_rough.bvh" "$work/dm_walk_rough.json" --loop
+import_clip "$work/dm_walk_rough.bvh" "$work/dm_walk_rough.json" --loop --no-fix-feet
 import_clip "$work/dm_walk_rough.bvh" "$work/dm_walk_fixed.json" --loop --fix-feet
 for out in dm_walk_rough dm_walk_fixed; do
   echo "rough DeepMimic walk ($out): contact $(field "$work/$out.json" "foot contact"); sliding $(field "$work/$out.json" foot_sliding); joint limits $(field "$work/$out.json" joint_limit); penetration $(field "$work/$out.json" penetration)"
@@ -137,9 +155,9 @@ head_bvh() {
 for name in 01_01 Boxing_Toes dm_walk; do
   src="$mocap/$name.bvh"
   [ -e "$src" ] || src="$work/$name.bvh"
-  [ -e "$work/$name.json" ] || import_clip "$src" "$work/$name.json"
+  [ -e "$work/$name.json" ] || import_clip "$src" "$work/$name.json" --no-fix-feet
   head_bvh "$src" 480 > "$work/$name.head.bvh"
-  import_clip "$work/$name.head.bvh" "$work/$name.head.json"
+  import_clip "$work/$name.head.bvh" "$work/$name.head.json" --no-fix-feet
   for ext in "${formats[@]}"; do
     from=$src ref=$work/$name.json
     [ $ext = dae ] && from=$work/$name.head.bvh ref=$work/$name.head.json
@@ -148,7 +166,7 @@ for name in 01_01 Boxing_Toes dm_walk; do
     [ -s "$work/$name.$ext" ] || { tail -n 20 "$work/blender.log"; fail "blender wrote no $name.$ext"; }
     # Blender bakes the scene's frame range; take the BVH's frames.
     frames=$(sed -n 's/.*: \([0-9]*\) frames at.*/\1/p' "$ref.err")
-    import_clip "$work/$name.$ext" "$work/$name.$ext.json" --last $((frames - 1))
+    import_clip "$work/$name.$ext" "$work/$name.$ext.json" --last $((frames - 1)) --no-fix-feet
     read -r rot pos hinge <<< "$(compare "$ref" "$work/$name.$ext.json")" ||
       fail "$name.$ext: $rot"
     echo "$name.$ext: $(stat -c %s "$work/$name.$ext") bytes, read $(read_ms "$work/$name.$ext.json") ms, rotation error ${rot} deg (knees and elbows ${hinge}), root error ${pos} cm vs the BVH"
