@@ -29,6 +29,7 @@
 #include "cli/report_command.h"
 #include "cli/role_commands.h"
 #include "cli/verify_command.h"
+#include "common/allocator.h"
 #include "common/blas.h"
 #include "common/config_section.h"
 
@@ -51,6 +52,7 @@ void InstallSignalHandlers() {
 int main(int argc, char** argv) {
   using namespace ragdoll;
   blas::ChooseKernels(argv);  // may execute this program again, before anything else has run
+  allocator::KeepLargeBlocks();
   CLI::App app("ragdoll: train physics-simulated characters to imitate animation clips.");
   app.require_subcommand(1);
   // Each command adds itself; its callback runs it (exit code) or returns -1 when not chosen.

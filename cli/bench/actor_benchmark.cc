@@ -9,11 +9,13 @@
 #include <string>
 
 #include "cli/measure.h"
+#include "common/allocator.h"
 #include "common/blas.h"
 
 int main(int argc, char** argv) {
   using namespace ragdoll;
   blas::ChooseKernels(argv);
+  allocator::KeepLargeBlocks();
   CLI::App app("Actor samples/s with the policy in the loop vs the environments alone.");
   std::string config;
   int environments = 0, repeats = 7, steps = 64;

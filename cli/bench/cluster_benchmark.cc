@@ -47,6 +47,7 @@
 #include "actor/rollout.h"
 #include "cli/experiment.h"
 #include "cli/report.h"
+#include "common/allocator.h"
 #include "common/blas.h"
 #include "common/endpoints.h"
 #include "common/median.h"
@@ -800,6 +801,7 @@ int Run(const BenchOptions& o) {
 
 int main(int argc, char** argv) {
   ragdoll::blas::ChooseKernels(argv);
+  ragdoll::allocator::KeepLargeBlocks();
   CLI::App app("Broker ceiling, learner absorption and snapshot fan-out on loopback.");
   BenchOptions o;
   app.add_option("config", o.config, "experiment YAML")->required();

@@ -21,6 +21,7 @@
 #include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_set.h"
 #include "cli/measure.h"
+#include "common/allocator.h"
 #include "common/blas.h"
 #include "common/config_section.h"
 #include "common/median.h"
@@ -105,6 +106,7 @@ Baseline RunBaseline(const Experiment& e, int episodes, uint64_t seed) {
 
 int main(int argc, char** argv) {
   ragdoll::blas::ChooseKernels(argv);
+  ragdoll::allocator::KeepLargeBlocks();
   CLI::App app("Environment throughput against raw MuJoCo, and no-learning baselines.");
   std::vector<std::string> configs;
   int steps = 1000, repeats = 11, episodes = 50;

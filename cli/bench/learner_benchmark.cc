@@ -26,6 +26,7 @@
 #include "actor/sim/imitation_env.h"
 #include "cli/experiment.h"
 #include "cli/measure.h"
+#include "common/allocator.h"
 #include "common/blas.h"
 #include "common/median.h"
 #include "learner/learner.h"
@@ -135,6 +136,7 @@ GroupFigures RunGroup(const std::string& config, int replicas, int port, int rep
 
 int main(int argc, char** argv) {
   blas::ChooseKernels(argv);
+  allocator::KeepLargeBlocks();
   CLI::App app("PPO update samples/s vs raw libtorch forward+backward+Adam.");
   std::string config;
   int repeats = 5, threads = 1, replicas = 1, port = 29560, rank = -1;
