@@ -238,7 +238,7 @@ void Learner::SetLearningRate(double learning_rate) {
 
 bool Learner::MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
                             const torch::Tensor& mb_advantages, const OldPolicy& old,
-                            UpdateStats& stats) {
+                            bool measure_kl, UpdateStats& stats) {
   PpoLossConfig loss_config;
   loss_config.clip_coef = config_.epsilon;
   loss_config.clip_vloss = config_.clip_value_loss;
@@ -248,8 +248,11 @@ bool Learner::MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
 
   auto current =
       policy_->Evaluate(b.b_obs.index_select(0, mb_inds), b.b_actions.index_select(0, mb_inds));
-  double update_kl =
-      GaussianKl(old.means.index_select(0, mb_inds), old.log_std, current.mean, policy_->log_std);
+  double update_kl = 0;
+  if (measure_kl) {
+    const torch::Tensor old_means = old.all_rows ? old.means.index_select(0, mb_inds) : old.means;
+    update_kl = GaussianKl(old_means, old.log_std, current.mean, policy_->log_std);
+  }
   torch::Tensor newvalue = critic_->forward(b.b_obs.index_select(0, mb_inds));
   PpoLoss loss = ComputePpoLoss(loss_config, current.log_prob, current.entropy, newvalue,
                                 b.b_logprobs.index_select(0, mb_inds), mb_advantages,
@@ -339,25 +342,40 @@ UpdateStats Learner::Update() {
   UpdateStats stats;
   stats.learning_rate = ScheduledLearningRate();
   SetLearningRate(stats.learning_rate);
-  // The policy this update starts from, to measure how far each step has moved it.
+  const Minibatches minibatches = group_->Split(b.size, local_batch_size_);
+  // Every epoch's order is drawn up front, so that the minibatches whose distance from the
+  // starting policy is needed are known before the policy moves.
+  std::vector<torch::Tensor> orders;
+  for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
+    orders.push_back(torch::randperm(b.size, torch::kLong));
+  }
+  auto minibatch = [&](int epoch, int64_t step) {
+    return orders[epoch].slice(0, step * minibatches.size, (step + 1) * minibatches.size);
+  };
+  // The adaptive schedule steers by every step's distance from the starting policy; otherwise
+  // only the last step's is reported, and the starting policy's means are needed for its
+  // minibatch alone (a forward pass over the whole batch is most of the rest of an update).
+  const bool adaptive = config_.schedule == TrainerConfig::Schedule::kAdaptive;
+  const int last_epoch = config_.num_epoch - 1;
+  const int64_t last_step = minibatches.steps - 1;
   OldPolicy old;
-  {
+  if (last_step >= 0) {
     torch::NoGradGuard no_grad;
-    old.means = policy_->forward(b.b_obs);
+    old.all_rows = adaptive;
+    old.means = policy_->forward(
+        adaptive ? b.b_obs : b.b_obs.index_select(0, minibatch(last_epoch, last_step)));
     old.log_std = policy_->log_std.detach().clone();
   }
 
-  const Minibatches minibatches = group_->Split(b.size, local_batch_size_);
   int64_t steps_taken = 0;
   for (int epoch = 0; epoch < config_.num_epoch; ++epoch) {
-    const torch::Tensor b_inds = torch::randperm(b.size, torch::kLong);
-    group_->StartEpoch(b.b_advantages, b_inds);
+    group_->StartEpoch(b.b_advantages, orders[epoch]);
     for (int64_t step = 0; step < minibatches.steps; ++step) {
-      const torch::Tensor mb_inds =
-          b_inds.slice(0, step * minibatches.size, (step + 1) * minibatches.size);
+      const torch::Tensor mb_inds = minibatch(epoch, step);
       const torch::Tensor mb_advantages =
           group_->NormalizedAdvantages(b.b_advantages.index_select(0, mb_inds), step);
-      if (MinibatchStep(b, mb_inds, mb_advantages, old, stats)) ++steps_taken;
+      const bool measure_kl = adaptive || (epoch == last_epoch && step == last_step);
+      if (MinibatchStep(b, mb_inds, mb_advantages, old, measure_kl, stats)) ++steps_taken;
     }
   }
   FinishStatistics(b, steps_taken, minibatches.weight, stats);

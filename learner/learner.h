@@ -143,8 +143,11 @@ class Learner {
  private:
   struct Rollout;
   struct Batch;
-  struct OldPolicy {  // the policy an update starts from
+  // The policy an update starts from: its means for every sample of the batch (`all_rows`),
+  // or, when only the last step's distance from it is needed, for that minibatch's rows alone.
+  struct OldPolicy {
     torch::Tensor means, log_std;
+    bool all_rows = true;
   };
 
   int replicas() const;
@@ -157,9 +160,10 @@ class Learner {
   double ScheduledLearningRate() const;
   void SetLearningRate(double learning_rate);
   // One gradient step on the minibatch `mb_inds` of `b`; false when skipped for a non-finite
-  // gradient.
+  // gradient. `measure_kl`: the step's distance from `old` is computed (else reported as 0).
   bool MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
-                     const torch::Tensor& mb_advantages, const OldPolicy& old, UpdateStats& stats);
+                     const torch::Tensor& mb_advantages, const OldPolicy& old, bool measure_kl,
+                     UpdateStats& stats);
   // The means over the `minibatches` steps taken, then over the group.
   void FinishStatistics(const Batch& b, int64_t minibatches, double weight, UpdateStats& stats);
   // The group's episode figures and samples (returned), from each replica's.
