@@ -246,14 +246,14 @@ bool Learner::MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
   loss_config.ent_coef = config_.beta;
   loss_config.norm_adv = false;  // normalised over the group's minibatch already
 
-  auto current =
-      policy_->Evaluate(b.b_obs.index_select(0, mb_inds), b.b_actions.index_select(0, mb_inds));
+  const torch::Tensor mb_obs = b.b_obs.index_select(0, mb_inds);
+  auto current = policy_->Evaluate(mb_obs, b.b_actions.index_select(0, mb_inds));
   double update_kl = 0;
   if (measure_kl) {
     const torch::Tensor old_means = old.all_rows ? old.means.index_select(0, mb_inds) : old.means;
     update_kl = GaussianKl(old_means, old.log_std, current.mean, policy_->log_std);
   }
-  torch::Tensor newvalue = critic_->forward(b.b_obs.index_select(0, mb_inds));
+  torch::Tensor newvalue = critic_->forward(mb_obs);
   PpoLoss loss = ComputePpoLoss(loss_config, current.log_prob, current.entropy, newvalue,
                                 b.b_logprobs.index_select(0, mb_inds), mb_advantages,
                                 b.b_value_targets.index_select(0, mb_inds),
