@@ -231,24 +231,37 @@ int RunDoctor(const std::string& config, bool quick, int train_seconds,
     // A sample costs 1/actor seconds of an actor's core and epochs/update of the learner's; on
     // `cores` cores shared by both, no training of this config trains faster than this.
     const double bound = cores / (1 / actor.with_policy + 1 / absorbed);
+    // What `ragdoll train` runs by default: the learner on one core, an actor process on each
+    // of the others; the slower side sets the pace.
+    const double separate = std::min(absorbed, (cores - 1) * actor.with_policy);
     std::printf(
-        "bound on %u cores: %.0f samples/s (the actor's and the learner's core-seconds "
-        "per sample, shared); with the learner on one core and actors on the rest: "
-        "%.0f\n",
-        cores, bound, std::min(absorbed, (cores - 1) * actor.with_policy));
-    out["bound_separate_cores"] = std::min(absorbed, (cores - 1) * actor.with_policy);
+        "bound on %u cores: %.0f samples/s with the learner on one core and an actor on each "
+        "other (what `ragdoll train` runs); %.0f if the two shared the cores perfectly (the "
+        "actor's and the learner's core-seconds per sample)\n",
+        cores, separate, bound);
+    out["bound_separate_cores"] = separate;
+    if (bound > 1.15 * separate && absorbed > (cores - 1) * actor.with_policy) {
+      advice.push_back("the learner keeps up with " + std::to_string(cores - 1) +
+                       " actor(s) using " +
+                       std::to_string(static_cast<int>(
+                           std::lround(100 * (cores - 1) * actor.with_policy / absorbed))) +
+                       " % of its core: one more actor process (`ragdoll train --actors " +
+                       std::to_string(cores) + "`) may use the rest");
+    }
     if (train_seconds > 0) {
       const double trained = TrainFor(config, train_seconds);
       std::printf(
-          "ragdoll train %s, %d s: %.0f samples/s after its first update: %.2f of the "
-          "bound\n",
-          config.c_str(), train_seconds, trained, trained / bound);
+          "ragdoll train %s, %d s: %.0f samples/s after its first update: %.2f of the bound "
+          "of its parts on their own cores, %.2f of the shared one\n",
+          config.c_str(), train_seconds, trained, trained / separate, trained / bound);
       out["train_samples_per_second"] = trained;
-      out["train_share_of_bound"] = trained / bound;
-      if (trained < 0.85 * bound) {
+      out["train_share_of_bound"] = trained / separate;
+      out["train_share_of_shared_bound"] = trained / bound;
+      if (trained < 0.85 * separate) {
         advice.push_back(
-            "the training reaches less than 0.85 of the bound: more actors (each "
-            "a process: `--actors`) or fewer epochs balance the halves");
+            "the training reaches less than 0.85 of what its parts do alone: the transport, "
+            "the policy lag or the episodes' resets take the rest (`ragdoll train` prints the "
+            "learner's idle share; docs/monitoring.md lists the series)");
       }
     }
     out["config"] = config;

@@ -20,16 +20,21 @@
 #include <vector>
 
 #include "actor/sim/imitation_env.h"
+#include "actor/sim/motion_io.h"
 #include "cli/experiment.h"
+#include "cli/motion_commands.h"
 #include "common/config_section.h"
 #include "learner/checkpoint_store.h"
+#include "motion/clip_kind.h"
+#include "motion/clip_report.h"
 
 namespace ragdoll::cli {
 namespace fs = std::filesystem;
 namespace {
 
 struct TrainOptions {
-  std::string config;
+  std::string config;  // with `motion`: the template (default: chosen for the clip's kind)
+  std::string motion;  // a motion file to import and train (`--motion`)
   std::string run_id;  // default: <config name>-<date>-<time>
   std::string runs_dir = "runs";
   bool resume = false;
@@ -331,7 +336,61 @@ class Supervisor {
   int group_restarts_ = 0, broker_restarts_ = 0;
 };
 
-int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
+// `train --motion FILE`: the file imported with `motion import`'s defaults, a config template
+// chosen for the clip's kind (or the one given), and both written into the run's folder as
+// `motion.json` and `<name>.yaml`; returns the options that train from them. A resumed run
+// keeps what its folder holds.
+TrainOptions PrepareMotionRun(TrainOptions options) {
+  const std::string stem = fs::path(options.motion).stem().string();
+  if (options.run_id.empty()) options.run_id = DefaultRunId(stem);
+  const fs::path run_dir = fs::path(options.runs_dir) / options.run_id;
+  const fs::path config = run_dir / (stem + ".yaml");
+  if (options.resume) {
+    if (!fs::exists(config)) {
+      throw ConfigError(config.string() + ": no such file: --resume --motion continues a run " +
+                        "that `train --motion` started (its folder holds the clip and config)");
+    }
+    std::fprintf(stderr, "ragdoll train: resuming %s with its own clip and config (%s)\n",
+                 options.run_id.c_str(), config.c_str());
+    options.config = config.string();
+    return options;
+  }
+  ImportedMotion imported = ImportMotionFile(options.motion);
+  for (const auto& note : imported.notes) std::fprintf(stderr, "  %s\n", note.c_str());
+  auto character = sim::Character::Load(sim::DefaultCharacterPath());
+  const motion::ClipKindChoice kind =
+      motion::ClassifyClip(imported.clip, motion::InspectClip(imported.clip, *character));
+  const std::string template_path = options.config.empty()
+                                        ? std::string(RAGDOLL_CONFIGS_DIR) + "/" + kind.config
+                                        : options.config;
+  std::fprintf(stderr, "ragdoll train: %s: %s (%s): %s %s\n", options.motion.c_str(),
+               kind.name.c_str(), kind.reason.c_str(),
+               options.config.empty() ? "config template" : "config (given)",
+               template_path.c_str());
+  YAML::Node tree;
+  try {
+    tree = YAML::LoadFile(template_path);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(template_path + ": " + e.what());
+  }
+  tree["environment"]["motion"] = "motion.json";
+  fs::create_directories(run_dir);
+  sim::SaveClip(imported.clip, imported.description, (run_dir / "motion.json").string());
+  YAML::Emitter out;
+  out << tree;
+  std::ofstream(config) << "# " << kind.name << " from " << options.motion << ", template "
+                        << template_path << "\n"
+                        << out.c_str() << "\n";
+  std::fprintf(stderr,
+               "ragdoll train: clip and config in %s (motion.json, %s); continue it with "
+               "`ragdoll train %s --run-id %s --resume`\n",
+               run_dir.c_str(), config.filename().c_str(), config.c_str(), options.run_id.c_str());
+  options.config = config.string();
+  return options;
+}
+
+int RunTrain(const TrainOptions& given, const std::atomic<bool>& stop) {
+  const TrainOptions options = given.motion.empty() ? given : PrepareMotionRun(given);
   Experiment e = ReadExperiment(options.config, options.port_base);
   if (!options.init_from.empty() && !options.resume)
     CheckInitFrom(options.init_from, e.environment);
@@ -372,7 +431,14 @@ int RunTrain(const TrainOptions& options, const std::atomic<bool>& stop) {
 std::function<int()> AddTrainCommand(CLI::App& app, const std::atomic<bool>& stop) {
   auto o = std::make_shared<TrainOptions>();
   auto* cmd = app.add_subcommand("train", "broker, learner and actors on this machine");
-  cmd->add_option("config", o->config, "experiment YAML (configs/*.yaml)")->required();
+  cmd->add_option("config", o->config,
+                  "experiment YAML (configs/*.yaml); with --motion, the template to use instead "
+                  "of the one chosen for the clip");
+  cmd->add_option("--motion", o->motion,
+                  "train this clip (BVH, FBX, glTF, COLLADA, the project's .json, DeepMimic's "
+                  ".txt): imported with `motion import`'s defaults, the config chosen for its "
+                  "kind, both kept in the run folder")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--run-id", o->run_id, "run name (default: config name and time)");
   cmd->add_option("--runs-dir", o->runs_dir, "where run folders go")->capture_default_str();
   cmd->add_flag("--resume", o->resume, "continue the run --run-id from its checkpoint");
@@ -386,6 +452,9 @@ std::function<int()> AddTrainCommand(CLI::App& app, const std::atomic<bool>& sto
   cmd->add_flag("--insecure", o->insecure, "let the broker listen beyond loopback without keys");
   return [cmd, o, &stop]() -> int {
     if (!*cmd) return -1;
+    if (o->config.empty() && o->motion.empty()) {
+      throw ConfigError("ragdoll train: give a config (configs/*.yaml) or --motion FILE");
+    }
     return RunTrain(*o, stop);
   };
 }

@@ -10,6 +10,7 @@
 #include "actor/sim/motion_io.h"
 #include "motion/auto_mapping.h"
 #include "motion/bvh.h"
+#include "motion/clip_kind.h"
 #include "motion/clip_report.h"
 #include "motion/foot_cleanup.h"
 #include "motion/retarget.h"
@@ -32,7 +33,15 @@ std::string CharacterPath(const std::string& given) {
   return given.empty() ? sim::DefaultCharacterPath() : given;
 }
 
-int Import(const MotionOptions& o) {
+// The import's work, without its output: the clip, the lines it prints, and its timings.
+struct ImportResult {
+  sim::MotionClip clip;
+  std::vector<std::string> notes;
+  std::string description;  // "imported from FILE with mapping M"
+  std::string summary;      // the source and the clip, one line
+};
+
+ImportResult ImportWith(const MotionOptions& o, const std::string& output) {
   using Clock = std::chrono::steady_clock;
   auto t0 = Clock::now();
   std::vector<std::string> notes;
@@ -83,19 +92,34 @@ int Import(const MotionOptions& o) {
     }
   }
   auto t2 = Clock::now();
-  for (const auto& n : notes) std::fprintf(stderr, "%s\n", n.c_str());
-  sim::SaveClip(clip,
-                "imported from " + std::filesystem::path(o.input).filename().string() +
-                    " with mapping " + mapping.origin,
-                o.output);
-  std::fprintf(stderr,
-               "%s (%s): %d frames at %.1f frames/s, %zu joints -> %s: %d frames, %.3f s "
-               "(read %.0f ms, retarget %.0f ms)\n",
-               o.input.c_str(), source.format.c_str(), source.num_frames(), 1 / source.frame_time,
-               source.joints.size(), o.output.c_str(), clip.num_frames(), clip.duration(),
-               std::chrono::duration<double, std::milli>(t1 - t0).count(),
-               std::chrono::duration<double, std::milli>(t2 - t1).count());
-  if (o.inspect_after) std::cout << motion::InspectClip(clip, *character).ToText();
+  char line[400];
+  std::snprintf(line, sizeof line,
+                "%s (%s): %d frames at %.1f frames/s, %zu joints -> %s: %d frames, %.3f s "
+                "(read %.0f ms, retarget %.0f ms)",
+                o.input.c_str(), source.format.c_str(), source.num_frames(), 1 / source.frame_time,
+                source.joints.size(), output.c_str(), clip.num_frames(), clip.duration(),
+                std::chrono::duration<double, std::milli>(t1 - t0).count(),
+                std::chrono::duration<double, std::milli>(t2 - t1).count());
+  return {std::move(clip), std::move(notes),
+          "imported from " + std::filesystem::path(o.input).filename().string() + " with mapping " +
+              mapping.origin,
+          line};
+}
+
+int Import(const MotionOptions& o) {
+  ImportResult r = ImportWith(o, o.output);
+  for (const auto& n : r.notes) std::fprintf(stderr, "%s\n", n.c_str());
+  if (!r.clip.loop() && motion::ClosesALoop(r.clip)) {
+    std::fprintf(
+        stderr, "loop: the last frame is the first pose again: --loop marks the clip as a cycle\n");
+  }
+  sim::SaveClip(r.clip, r.description, o.output);
+  std::fprintf(stderr, "%s\n", r.summary.c_str());
+  if (o.inspect_after) {
+    auto character = sim::Character::Load(CharacterPath(o.character));
+    std::cout << motion::InspectClip(r.clip, *character).ToText();
+  }
+  std::fprintf(stderr, "train it: ragdoll train --motion %s\n", o.output.c_str());
   return 0;
 }
 
@@ -127,6 +151,26 @@ int Inspect(const MotionOptions& o) {
 }
 
 }  // namespace
+
+ImportedMotion ImportMotionFile(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".json" || ext == ".txt") {
+    sim::MotionClip clip = sim::LoadMotion(path);
+    return {clip, {}, "the clip " + std::filesystem::path(path).filename().string()};
+  }
+  MotionOptions o;
+  o.input = path;
+  ImportResult r = ImportWith(o, "the run folder");
+  r.notes.push_back(r.summary);
+  std::string why;
+  if (motion::ClosesALoop(r.clip, &why)) {
+    r.clip = motion::AsLoop(r.clip);
+    r.notes.push_back("loop: yes, " + why);
+  } else {
+    r.notes.push_back("loop: no, " + why);
+  }
+  return {std::move(r.clip), std::move(r.notes), r.description};
+}
 
 std::function<int()> AddMotionCommands(CLI::App& app) {
   auto o = std::make_shared<MotionOptions>();

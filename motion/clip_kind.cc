@@ -1,0 +1,106 @@
+#include "motion/clip_kind.h"
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "actor/sim/skeleton.h"
+
+namespace ragdoll::motion {
+
+using sim::MotionClip;
+using sim::Pose;
+
+namespace {
+
+double Degrees(double radians) { return radians * 180 / M_PI; }
+
+// The root's tilt: its rotation with the heading taken out.
+sim::Quat Tilt(const sim::Quat& root) {
+  return sim::Multiply(sim::Conjugate(sim::HeadingOf(root)), root);
+}
+
+bool IsFoot(const std::string& body) {
+  return body.find("ankle") != std::string::npos || body.find("toe") != std::string::npos ||
+         body.find("foot") != std::string::npos;
+}
+
+}  // namespace
+
+bool ClosesALoop(const MotionClip& clip, std::string* why) {
+  const Pose& first = clip.frame(0);
+  const Pose& last = clip.frame(clip.num_frames() - 1);
+  char line[200];
+  auto say = [&](bool result) {
+    if (why != nullptr) *why = line;
+    return result;
+  };
+  double worst = 0;
+  std::string joint;
+  const std::vector<sim::SkeletonJoint>& joints = sim::Humanoid3dJoints();
+  for (size_t j = 0; j < first.joint_rotations.size(); ++j) {
+    const double angle =
+        Degrees(sim::AngleBetween(first.joint_rotations[j], last.joint_rotations[j]));
+    if (angle > worst) {
+      worst = angle;
+      joint = j < joints.size() ? joints[j].name : std::to_string(j);
+    }
+  }
+  std::snprintf(line, sizeof line, "the last frame's %s is %.0f deg from the first's",
+                joint.c_str(), worst);
+  if (worst > kLoopJointDegrees) return say(false);
+  const double height = std::fabs(last.root_position[2] - first.root_position[2]);
+  if (height > kLoopHeight) {
+    std::snprintf(line, sizeof line, "the root ends %.0f cm %s than it starts", 100 * height,
+                  last.root_position[2] > first.root_position[2] ? "higher" : "lower");
+    return say(false);
+  }
+  const double tilt =
+      Degrees(sim::AngleBetween(Tilt(first.root_rotation), Tilt(last.root_rotation)));
+  if (tilt > kLoopJointDegrees) {
+    std::snprintf(line, sizeof line, "the body ends tilted %.0f deg from how it starts", tilt);
+    return say(false);
+  }
+  std::snprintf(line, sizeof line,
+                "the last frame is the first pose again (every joint within %.0f deg, %s the "
+                "farthest)",
+                kLoopJointDegrees, joint.c_str());
+  return say(true);
+}
+
+MotionClip AsLoop(const MotionClip& clip) {
+  std::vector<Pose> frames;
+  std::vector<double> durations;
+  for (int f = 0; f < clip.num_frames(); ++f) {
+    frames.push_back(clip.frame(f));
+    durations.push_back(clip.frame_duration(f));
+  }
+  return MotionClip(clip.name(), true, std::move(durations), std::move(frames),
+                    clip.cycle_transform());
+}
+
+ClipKindChoice ClassifyClip(const MotionClip& clip, const ClipReport& report) {
+  char line[300];
+  for (const auto& [body, share] : report.ground_contacts) {
+    if (IsFoot(body) || share < kContactShare) continue;
+    std::snprintf(line, sizeof line, "its %s is on the floor in %.0f %% of frames", body.c_str(),
+                  100 * share);
+    return {ClipKind::kContactRich, "contact-rich", "action.yaml", line};
+  }
+  if (!clip.loop()) {
+    std::snprintf(line, sizeof line, "it plays once (%.2f s)", clip.duration());
+    return {ClipKind::kAction, "one-shot action", "action.yaml", line};
+  }
+  const double speed =
+      std::hypot(clip.cycle_displacement()[0], clip.cycle_displacement()[1]) / clip.duration();
+  const double turn = std::fabs(clip.cycle_yaw());
+  std::snprintf(line, sizeof line,
+                "a loop of %.2f s whose root travels %.2f m/s and turns %.0f deg", clip.duration(),
+                speed, Degrees(turn));
+  if (speed >= kLocomotionSpeed || turn >= kLocomotionTurn) {
+    return {ClipKind::kLocomotion, "looping locomotion", "walk.yaml", line};
+  }
+  return {ClipKind::kInPlace, "loop in place", "stand.yaml", line};
+}
+
+}  // namespace ragdoll::motion

@@ -1,0 +1,45 @@
+// What kind of clip an import gave, for choosing how to train it (`ragdoll train --motion`):
+// whether it closes a loop, and whether it is locomotion, a loop in place, a one-shot action, or
+// a clip that puts more than the feet on the floor.
+#pragma once
+
+#include <string>
+
+#include "actor/sim/motion_clip.h"
+#include "motion/clip_report.h"
+
+namespace ragdoll::motion {
+
+// Whether the clip's last frame is its first pose again, up to where the root went and how it
+// turned: every joint within `kLoopJointDegrees`, the root's height within `kLoopHeight` and its
+// tilt within the same angle. `why` (optional) names the joint or figure that decided.
+constexpr double kLoopJointDegrees = 12;
+constexpr double kLoopHeight = 0.04;  // m
+bool ClosesALoop(const sim::MotionClip& clip, std::string* why = nullptr);
+
+// The clip marked as looping (its frames unchanged).
+sim::MotionClip AsLoop(const sim::MotionClip& clip);
+
+enum class ClipKind {
+  kLocomotion,   // a loop whose root travels or turns each cycle (walks, runs, strafes, turns)
+  kInPlace,      // a loop that stays where it is (standing, dancing on the spot, exercises)
+  kAction,       // plays once (a punch, a kick, a jump)
+  kContactRich,  // more than the feet on the floor (get-ups, crawls, rolls, kneeling)
+};
+
+struct ClipKindChoice {
+  ClipKind kind;
+  std::string name;    // "looping locomotion", "loop in place", "one-shot action", "contact-rich"
+  std::string config;  // the shipped config it trains with, a file name in configs/
+  std::string reason;  // the figures that decided, for the user
+};
+
+// Thresholds: locomotion travels at least `kLocomotionSpeed` or turns at least
+// `kLocomotionTurn` per cycle; a clip is contact-rich when a body other than the feet touches
+// the floor in at least `kContactShare` of its frames.
+constexpr double kLocomotionSpeed = 0.15;  // m/s
+constexpr double kLocomotionTurn = 0.2;    // rad per cycle
+constexpr double kContactShare = 0.1;
+ClipKindChoice ClassifyClip(const sim::MotionClip& clip, const ClipReport& report);
+
+}  // namespace ragdoll::motion
