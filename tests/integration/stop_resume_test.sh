@@ -8,7 +8,8 @@ set -u
 ragdoll=$1 config=$2
 rounds=${ROUNDS:-10}
 work=$(mktemp -d /tmp/ragdoll-stop-resume.XXXXXX)
-port=$((35000 + 50 * (RANDOM % 20)))
+# Below 32768, where Linux takes the local ports of outgoing connections (one held 35800 once).
+port=$((28700 + 50 * (RANDOM % 20)))
 pids=()
 cleanup() { kill -INT "${pids[@]}" 2> /dev/null; wait 2> /dev/null; rm -rf "$work"; }
 trap cleanup EXIT

@@ -10,7 +10,8 @@
 set -u
 ragdoll=$1 assets=$2
 work=$(mktemp -d /tmp/ragdoll-train-motion.XXXXXX)
-port=$((36000 + 50 * (RANDOM % 20)))
+# Below 32768, where Linux takes the local ports of outgoing connections.
+port=$((29700 + 50 * (RANDOM % 20)))
 pids=()
 cleanup() { kill -INT "${pids[@]}" 2> /dev/null; wait 2> /dev/null; rm -rf "$work"; }
 trap cleanup EXIT
