@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <functional>
 
+#include "cli/bake_command.h"
 #include "cli/doctor_command.h"
 #include "cli/eval_command.h"
 #include "cli/export_command.h"
@@ -66,7 +67,8 @@ int main(int argc, char** argv) {
                                            cli::AddKeygenCommand(app),
                                            cli::AddVerifyCommand(app),
                                            cli::AddExportCommand(app),
-                                           cli::AddDoctorCommand(app)};
+                                           cli::AddDoctorCommand(app),
+                                           cli::AddBakeCommand(app)};
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {

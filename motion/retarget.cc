@@ -577,7 +577,8 @@ void PlaceOnFloor(const Character& character, std::vector<Pose>* frames) {
   for (Pose& p : *frames) p.root_position[2] -= floor_height;
 }
 
-// The clip at `fps`: whole intervals over the same duration (a loop still closes exactly).
+}  // namespace
+
 MotionClip Resampled(const MotionClip& clip, double fps) {
   const int intervals = std::max(1, static_cast<int>(std::lround(clip.duration() * fps)));
   const double dt = clip.duration() / intervals;
@@ -587,8 +588,6 @@ MotionClip Resampled(const MotionClip& clip, double fps) {
   std::vector<double> resampled_durations(resampled.size(), dt);
   return MotionClip(clip.name(), clip.loop(), std::move(resampled_durations), std::move(resampled));
 }
-
-}  // namespace
 
 const std::vector<std::string>& MappingParts() {
   static const std::vector<std::string> kParts = {

@@ -60,6 +60,9 @@ sim::MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& ma
                          const sim::Character& character, const ImportOptions& options,
                          std::vector<std::string>* warnings = nullptr);
 
+// The clip at `fps`: whole intervals over the same duration (a loop still closes exactly).
+sim::MotionClip Resampled(const sim::MotionClip& clip, double fps);
+
 struct ExportOptions {
   std::string rotation_order = "ZXY";  // channel order of every joint's rotation
   double units_per_metre = 1;          // 100 writes centimetres
