@@ -35,20 +35,23 @@ bool ClosesALoop(const MotionClip& clip, std::string* why) {
     if (why != nullptr) *why = line;
     return result;
   };
-  double worst = 0;
+  double worst = 0, sum = 0;
   std::string joint;
   const std::vector<sim::SkeletonJoint>& joints = sim::Humanoid3dJoints();
   for (size_t j = 0; j < first.joint_rotations.size(); ++j) {
     const double angle =
         Degrees(sim::AngleBetween(first.joint_rotations[j], last.joint_rotations[j]));
+    sum += angle;
     if (angle > worst) {
       worst = angle;
       joint = j < joints.size() ? joints[j].name : std::to_string(j);
     }
   }
-  std::snprintf(line, sizeof line, "the last frame's %s is %.0f deg from the first's",
-                joint.c_str(), worst);
-  if (worst > kLoopJointDegrees) return say(false);
+  const double mean = first.joint_rotations.empty() ? 0 : sum / first.joint_rotations.size();
+  std::snprintf(line, sizeof line,
+                "the last frame's joints are %.1f deg from the first's on average, its %s %.0f",
+                mean, joint.c_str(), worst);
+  if (mean > kLoopMeanDegrees || worst > kLoopJointDegrees) return say(false);
   const double height = std::fabs(last.root_position[2] - first.root_position[2]);
   if (height > kLoopHeight) {
     std::snprintf(line, sizeof line, "the root ends %.0f cm %s than it starts", 100 * height,
@@ -57,14 +60,14 @@ bool ClosesALoop(const MotionClip& clip, std::string* why) {
   }
   const double tilt =
       Degrees(sim::AngleBetween(Tilt(first.root_rotation), Tilt(last.root_rotation)));
-  if (tilt > kLoopJointDegrees) {
+  if (tilt > kLoopMeanDegrees) {
     std::snprintf(line, sizeof line, "the body ends tilted %.0f deg from how it starts", tilt);
     return say(false);
   }
   std::snprintf(line, sizeof line,
-                "the last frame is the first pose again (every joint within %.0f deg, %s the "
-                "farthest)",
-                kLoopJointDegrees, joint.c_str());
+                "the last frame is the first pose again (its joints %.1f deg from the first's on "
+                "average, its %s %.0f)",
+                mean, joint.c_str(), worst);
   return say(true);
 }
 
