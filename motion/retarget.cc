@@ -404,6 +404,43 @@ void AlignHingesWithMotion(const SourceOnCharacter& view, const Character& chara
 // A toe moving faster than this (m/s) is not planted.
 constexpr double kPlantedToeSpeed = 0.3;
 
+// One foot of the source on the character: its ankle and toe joints, and which frames it is
+// low in (toe and ankle within 3 cm of their 1st-percentile heights: a glitch frame is not the
+// floor). `valid` is false when the source lacks the ankle or its toe.
+struct SourceFoot {
+  bool valid = false;
+  int ankle = -1, toe = -1;
+  std::vector<char> low;  // [frame - first]
+};
+
+SourceFoot FindSourceFoot(const SourceOnCharacter& view, const std::string& side, int first,
+                          int last, double scale) {
+  SourceFoot foot;
+  const std::string ankle = side + "ankle";
+  foot.toe = view.BoneEnd(ankle, side + "toe");
+  if (!view.has(ankle) || foot.toe < 0 || last < first) return foot;
+  foot.ankle = view.joint(ankle);
+  const SkeletonAnimation& source = view.source();
+  auto height = [&](int f, int j) {
+    return view.InCharacter(source.frames[f][j].position)[2] * scale;
+  };
+  std::vector<double> toe_heights, ankle_heights;
+  for (int f = first; f <= last; ++f) {
+    toe_heights.push_back(height(f, foot.toe));
+    ankle_heights.push_back(height(f, foot.ankle));
+  }
+  std::vector<double> toe_sorted = toe_heights, ankle_sorted = ankle_heights;
+  std::sort(toe_sorted.begin(), toe_sorted.end());
+  std::sort(ankle_sorted.begin(), ankle_sorted.end());
+  const double toe_min = toe_sorted[toe_sorted.size() / 100];
+  const double ankle_min = ankle_sorted[ankle_sorted.size() / 100];
+  for (size_t i = 0; i < toe_heights.size(); ++i) {
+    foot.low.push_back(toe_heights[i] <= toe_min + 0.03 && ankle_heights[i] <= ankle_min + 0.03);
+  }
+  foot.valid = true;
+  return foot;
+}
+
 // The horizontal velocity of the frames' low toes, per component the median over both feet
 // (`low`: the toe and ankle within 3 cm of their floors). Zero for a clip whose planted feet
 // stand still; the walking speed backward for one exported in place (a treadmill).
@@ -412,26 +449,12 @@ Vec3 TreadmillVelocity(const SourceOnCharacter& view, int first, int last, doubl
   const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
   std::vector<double> vx, vy;
   for (const char* side : {"right_", "left_"}) {
-    const std::string ankle = std::string(side) + "ankle";
-    const int toe = view.BoneEnd(ankle, std::string(side) + "toe");
-    if (!view.has(ankle) || toe < 0 || last <= first) continue;
-    const int a = view.joint(ankle);
-    auto height = [&](int f, int j) {
-      return view.InCharacter(source.frames[f][j].position)[2] * scale;
-    };
-    std::vector<double> toe_heights, ankle_heights;
-    for (int f = first; f <= last; ++f) {
-      toe_heights.push_back(height(f, toe));
-      ankle_heights.push_back(height(f, a));
-    }
-    std::sort(toe_heights.begin(), toe_heights.end());
-    std::sort(ankle_heights.begin(), ankle_heights.end());
-    const double toe_min = toe_heights[toe_heights.size() / 100];
-    const double ankle_min = ankle_heights[ankle_heights.size() / 100];
+    const SourceFoot foot = FindSourceFoot(view, side, first, last, scale);
+    if (!foot.valid) continue;
     for (int f = first; f < last; ++f) {
-      if (height(f, toe) > toe_min + 0.03 || height(f, a) > ankle_min + 0.03) continue;
-      const Vec3 step = Scale(Sub(view.InCharacter(source.frames[f + 1][toe].position),
-                                  view.InCharacter(source.frames[f][toe].position)),
+      if (!foot.low[f - first]) continue;
+      const Vec3 step = Scale(Sub(view.InCharacter(source.frames[f + 1][foot.toe].position),
+                                  view.InCharacter(source.frames[f][foot.toe].position)),
                               scale / dt);
       vx.push_back(step[0]);
       vy.push_back(step[1]);
@@ -452,29 +475,15 @@ void LevelFeet(const SourceOnCharacter& view, int first, int last, double scale,
   Vec3 treadmill = TreadmillVelocity(view, first, last, scale);
   if (std::hypot(treadmill[0], treadmill[1]) <= kPlantedToeSpeed) treadmill = {0, 0, 0};
   for (const char* side : {"right_", "left_"}) {
-    const std::string ankle = std::string(side) + "ankle";
-    const int s = ankle[0] == 'r' ? 5 : 10;
-    const int toe = view.BoneEnd(ankle, std::string(side) + "toe");
-    if (!view.has(ankle) || toe < 0 || !aligned->driven[s]) continue;
-    const int a = view.joint(ankle);
-    auto height = [&](int f, int j) {
-      return view.InCharacter(source.frames[f][j].position)[2] * scale;
-    };
-    // The floor under this foot: its 1st-percentile heights (a glitch frame is not the floor).
-    std::vector<double> toe_heights, ankle_heights;
-    for (int f = first; f <= last; ++f) {
-      toe_heights.push_back(height(f, toe));
-      ankle_heights.push_back(height(f, a));
-    }
-    std::sort(toe_heights.begin(), toe_heights.end());
-    std::sort(ankle_heights.begin(), ankle_heights.end());
-    const double toe_min = toe_heights[toe_heights.size() / 100];
-    const double ankle_min = ankle_heights[ankle_heights.size() / 100];
+    const int s = side[0] == 'r' ? 5 : 10;
+    const SourceFoot foot = FindSourceFoot(view, side, first, last, scale);
+    if (!foot.valid || !aligned->driven[s]) continue;
+    const int a = foot.ankle, toe = foot.toe;
     const double dt = source.frame_time > 0 ? source.frame_time : 1.0 / 30;
     Quat sum = {0, 0, 0, 0};
     int planted = 0;
     for (int f = first; f <= last; ++f) {
-      if (height(f, toe) > toe_min + 0.03 || height(f, a) > ankle_min + 0.03) continue;
+      if (!foot.low[f - first]) continue;
       const int g = f < last ? f + 1 : f - 1;
       Vec3 step = Scale(Sub(view.InCharacter(source.frames[g][toe].position),
                             view.InCharacter(source.frames[f][toe].position)),

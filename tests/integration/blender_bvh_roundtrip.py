@@ -1,22 +1,11 @@
 # Blender reads a BVH and writes its animation back as BVH, to check what Blender reads of a file
 # the project wrote:
 #   blender -b --factory-startup --python blender_bvh_roundtrip.py -- IN.bvh OUT.bvh
-import builtins
+import os
 import sys
 
-import numpy
-
-# The same shims as blender_convert.py (Debian 12's Blender 3.4 add-ons, numpy 1.24, Python 3.11).
-numpy.bool = bool
-_open = builtins.open
-
-
-def _open_without_u(file, mode="r", *args, **kwargs):
-    return _open(file, mode.replace("U", ""), *args, **kwargs)
-
-
-builtins.open = _open_without_u
-
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blender_shims  # noqa: E402,F401  (before bpy)
 import bpy  # noqa: E402
 
 source, target = sys.argv[sys.argv.index("--") + 1:][:2]

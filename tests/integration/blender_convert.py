@@ -2,23 +2,11 @@
 # or COLLADA with Blender's own importer and exporters, to test the readers on files another
 # program wrote:
 #   blender -b --factory-startup --python blender_convert.py -- IN.bvh OUT.{fbx,glb,dae}
-import builtins
+import os
 import sys
 
-import numpy
-
-# Debian 12's Blender 3.4 add-ons predate its numpy 1.24 (np.bool) and Python 3.11 (open mode
-# "U"); both shims only restore what those add-ons expect.
-numpy.bool = bool
-_open = builtins.open
-
-
-def _open_without_u(file, mode="r", *args, **kwargs):
-    return _open(file, mode.replace("U", ""), *args, **kwargs)
-
-
-builtins.open = _open_without_u
-
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blender_shims  # noqa: E402,F401  (before bpy)
 import bpy  # noqa: E402
 
 source, target = sys.argv[sys.argv.index("--") + 1:][:2]
