@@ -26,7 +26,8 @@ config_dir=$(cd "$(dirname "$2")" && pwd)
 sed -E -e 's/^(\s*max_steps:).*/\1 1.0e9/' \
   -e "s#^(\\s*(- )?(motion|character|keys):\\s*)([^/\"'[:space:]][^[:space:]]*)#\\1$config_dir/\\4#" \
   "$2" > "$config"
-run=chaos port=$((31000 + RANDOM % 2000))
+# Ports below 32768: above it Linux takes the local ports of outgoing connections.
+run=chaos port=$((11000 + RANDOM % 2000))
 declare -A pid kills restarts
 roles=(broker learner actor-0 actor-1)
 cleanup() {

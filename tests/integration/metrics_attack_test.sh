@@ -13,7 +13,8 @@ set -u
 ragdoll=$1 config=$2 attacker=$3
 attack_seconds=${ATTACK_SECONDS:-60}
 work=$(mktemp -d /tmp/ragdoll-metrics-attack.XXXXXX)
-run=attack port=$((33000 + 50 * (RANDOM % 20)))
+# Ports below 32768: above it Linux takes the local ports of outgoing connections.
+run=attack port=$((13500 + 50 * (RANDOM % 20)))
 prom_port=$((port + 45))
 api="http://127.0.0.1:$prom_port/api/v1"
 declare -A metrics=([learner]=$((port + 10)) [broker]=$((port + 11)) [actor]=$((port + 20)))

@@ -30,7 +30,8 @@ sed -E -e 's/^(\s*max_steps:).*/\1 1.0e9/' \
   -e "s#^(\\s*(- )?(motion|character|keys):\\s*)([^/\"'[:space:]][^[:space:]]*)#\\1$config_dir/\\4#" \
   "$2" > "$config"
 keep=$(sed -n 's/^\s*keep_checkpoints:\s*\([0-9]*\).*/\1/p' "$config")
-run=soak port=$((37000 + 50 * (RANDOM % 20)))
+# Ports below 32768: above it Linux takes the local ports of outgoing connections.
+run=soak port=$((15000 + 50 * (RANDOM % 20)))
 roles=(broker learner actor-0 actor-1)
 declare -A pid life metrics_port=([learner]=$((port + 10)) [broker]=$((port + 11))
   [actor-0]=$((port + 20)) [actor-1]=$((port + 21)))
