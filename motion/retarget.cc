@@ -1,6 +1,7 @@
 #include "motion/retarget.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -320,13 +321,20 @@ SegmentAlignments AlignRestPoses(const SourceOnCharacter& view,
     if (seg.twist == Twist::kHipsLeft) pair("left_hip", "right_hip");
     if (seg.twist == Twist::kShouldersLeft) pair("left_shoulder", "right_shoulder");
     if (seg.twist == Twist::kUp) source_twist = char_twist = {0, 0, 1};
-    auto perpendicular = [](const Vec3& bone, const Vec3& t) {
-      return Norm(Sub(t, Scale(bone, Dot(t, bone) / Dot(bone, bone))));
+    auto across = [](const Vec3& bone, const Vec3& t) {
+      return Norm(Sub(t, Scale(bone, Dot(t, bone) / Dot(bone, bone)))) >= 0.3 * Norm(t);
     };
-    // A twist reference along the bone fixes nothing: use the other world axis.
-    if (perpendicular(source_bone, source_twist) < 0.3 * Norm(source_twist) ||
-        perpendicular(char_bone, char_twist) < 0.3 * Norm(char_twist)) {
-      source_twist = char_twist = seg.twist == Twist::kUp ? Vec3{1, 0, 0} : Vec3{0, 0, 1};
+    // A twist reference along the bone fixes nothing: use a world axis across both bones (a file
+    // whose "rest" is a posed frame can hold a shin level while the character's hangs).
+    if (!across(source_bone, source_twist) || !across(char_bone, char_twist)) {
+      const Vec3 up = {0, 0, 1}, forward = {1, 0, 0}, left = {0, 1, 0};
+      for (const Vec3& axis : seg.twist == Twist::kUp ? std::array{forward, up, left}
+                                                      : std::array{up, forward, left}) {
+        if (across(source_bone, axis) && across(char_bone, axis)) {
+          source_twist = char_twist = axis;
+          break;
+        }
+      }
     }
     aligned.alignment[s] =
         ToQuat(Mul(Frame(source_bone, source_twist), Transpose(Frame(char_bone, char_twist))));

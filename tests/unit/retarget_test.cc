@@ -217,6 +217,31 @@ TEST_F(RetargetTest, AlignsATPosedSkeletonToTheCharacter) {
   }
 }
 
+// A file whose rest is a posed frame (Blender's FBX of DeepMimic's run): the left shin level
+// behind the knee and the foot pointing down, along the twist references the retarget uses for
+// them (forward, up), while the character's shin hangs and its foot points forward.
+TEST_F(RetargetTest, ARestPoseWithALevelShinStillAligns) {
+  BvhMotion bvh = ClipToBvh(walk_, *character_, ReadJointMapping("ragdoll"), {});
+  for (auto& frame : bvh.frames) {
+    for (size_t c = 3; c < frame.size(); ++c) frame[c] = 0;  // the rest pose in every frame
+  }
+  for (auto& joint : bvh.joints) {
+    if (joint.name == "left_ankle") joint.offset = {-0.41, 0, 0};
+    if (joint.name == "left_toe") joint.offset = {0, 0, -0.15};
+  }
+  ImportOptions options;
+  options.feet = ImportOptions::Feet::kRest;
+  MotionClip clip = RetargetFromBvh(bvh, ReadJointMapping("ragdoll"), *character_, options);
+  const Pose& p = clip.frame(0);
+  for (const Quat& q : p.joint_rotations) {
+    for (double c : q) ASSERT_TRUE(std::isfinite(c));
+  }
+  // The knee bent a quarter turn, the thigh still hanging.
+  EXPECT_NEAR(AngleBetween(p.joint_rotations[FindJoint("left_knee")], {1, 0, 0, 0}), M_PI / 2,
+              1e-6);
+  EXPECT_NEAR(AngleBetween(p.joint_rotations[FindJoint("left_hip")], {1, 0, 0, 0}), 0, 1e-6);
+}
+
 TEST_F(RetargetTest, MixamoNamesMatchWithOrWithoutTheirNamespace) {
   BvhMotion bvh = ClipToBvh(squat_, *character_, ReadJointMapping("mixamo"), {});
   std::string text = FormatBvh(bvh);
