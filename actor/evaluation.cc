@@ -5,6 +5,8 @@
 
 #include "actor/push_evaluation.h"
 #include "actor/rollout.h"
+#include "actor/sim/character.h"
+#include "actor/sim/motion_set.h"
 
 namespace ragdoll::actor {
 
@@ -37,13 +39,17 @@ EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& s
   return Evaluate(worker, episodes);
 }
 
-EvaluationResult Evaluate(RolloutWorker& worker, int episodes) {
+namespace {
+
+// Means over `episodes` episodes that `run` plays one at a time.
+template <typename RunEpisode>
+EvaluationResult Mean(const sim::EnvSpec& spec, int episodes, RunEpisode run) {
   EvaluationResult r;
   r.episodes = episodes;
-  r.spec = worker.spec();
+  r.spec = spec;
   r.figures.assign(r.spec.figure_names.size(), 0.0);
   for (int i = 0; i < episodes; ++i) {
-    sim::EpisodeStats e = worker.RunEpisode(/*deterministic=*/true);
+    const sim::EpisodeStats e = run();
     r.mean_return += e.episode_return / episodes;
     r.normalized_return += e.normalized_return / episodes;
     r.episode_length += static_cast<double>(e.length) / episodes;
@@ -51,6 +57,27 @@ EvaluationResult Evaluate(RolloutWorker& worker, int episodes) {
     for (size_t f = 0; f < r.figures.size(); ++f) r.figures[f] += e.figures[f] / episodes;
   }
   return r;
+}
+
+}  // namespace
+
+EvaluationResult Evaluate(RolloutWorker& worker, int episodes) {
+  return Mean(worker.spec(), episodes, [&] { return worker.RunEpisode(/*deterministic=*/true); });
+}
+
+EvaluationResult EvaluateReferenceTracking(const sim::EnvConfig& config, int episodes,
+                                           uint64_t seed) {
+  auto character = sim::Character::Load(config.character, config.physics_dt());
+  sim::ImitationEnv env(character, sim::LoadMotionSet(config, *character), config, seed);
+  std::vector<float> observation(env.spec().observation_size), action(env.spec().action_size);
+  return Mean(env.spec(), episodes, [&] {
+    env.Reset(observation.data());
+    for (;;) {
+      env.ReferenceAction(action.data());
+      const sim::StepResult s = env.Step(action.data(), observation.data());
+      if (s.terminated || s.truncated) return env.episode();
+    }
+  });
 }
 
 }  // namespace ragdoll::actor

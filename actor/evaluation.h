@@ -33,5 +33,8 @@ EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& s
                           int episodes, uint64_t seed);
 // The same with a worker that has its policy (episodes of its environment 0).
 EvaluationResult Evaluate(RolloutWorker& worker, int episodes);
+// The same episodes without a policy, every PD target at the reference pose: the "tracking
+// alone" baseline that shows what learning added.
+EvaluationResult EvaluateReferenceTracking(const sim::EnvConfig& env, int episodes, uint64_t seed);
 
 }  // namespace ragdoll::actor

@@ -4,7 +4,8 @@
 #    Mixamo's "In Place" does: the import rebuilds the travel and finds the loop, the walk's
 #    template is chosen, the clip and the config land in the run folder, the training makes PPO
 #    updates; Ctrl-C, then `--resume` from the run's own config carries it on, and `eval` works;
-#  - the shipped walk_stop (plays once): the one-shot template is chosen;
+#  - the shipped walk_stop (plays once): the one-shot template is chosen, and `eval` adds the
+#    whole clip from its first frame;
 #  - a missing file and a run given neither a config nor a clip are refused with a message.
 #   train_motion_test.sh RAGDOLL ASSETS_DIR
 set -u
@@ -72,16 +73,24 @@ after=$(sed -n 's/.* samples \([0-9]*\) .*/\1/p' "$work/resume.log" | tail -n 1)
 "$ragdoll" eval "$run" --episodes 2 > "$work/eval.txt" 2>&1 || fail "eval: $(tail -n 3 "$work/eval.txt")"
 grep -q "normalised return" "$work/eval.txt" || fail "eval: $(tail -n 3 "$work/eval.txt")"
 
-# A clip that plays once.
-"$ragdoll" train --motion "$assets/motions/walk_stop.json" --run-id stop --runs-dir "$work" \
-  --port-base "$port" --actors 1 > "$work/stop.log" 2>&1 &
-pid=$!
-pids+=($pid)
-for _ in $(seq 100); do grep -q "config template" "$work/stop.log" && break; sleep 0.2; done
-kill -INT "$pid" 2> /dev/null
-wait "$pid"
+# A clip that plays once: its template, and `eval` judges the whole clip from its first frame.
+train_one_update "$work/stop.log" --motion "$assets/motions/walk_stop.json" --run-id stop
 grep -q "one-shot action (it plays once (1.50 s)): config template .*/configs/action.yaml" \
   "$work/stop.log" || fail "walk_stop: $(grep template "$work/stop.log")"
+"$ragdoll" eval "$work/stop" --episodes 2 --json "$work/stop.json" > /dev/null 2> "$work/stop_eval.txt" ||
+  fail "eval of the one-shot run: $(tail -n 3 "$work/stop_eval.txt")"
+grep -q "the clip plays once: from its first frame" "$work/stop_eval.txt" ||
+  fail "no whole-clip figure: $(tail -n 3 "$work/stop_eval.txt")"
+python3 - "$work/stop.json" << 'PY' || fail "whole_clip: $(cat "$work/stop.json")"
+import json, sys
+w = json.load(open(sys.argv[1]))["whole_clip"]
+# 1.5 s at 30 decisions per second, unless it fell; a return in [0, 1]; the same for the PD
+# targets alone.
+ok = lambda e: 0 < e["episode_length"] <= 45 and 0 <= e["normalized_return"] <= 1 and (
+    e["fell"] or e["episode_length"] == 45)
+sys.exit(0 if ok(w) and ok(w["reference_tracking"]) else 1)
+PY
+grep -q "plays once" "$work/eval.txt" && fail "a looping walk was judged as a one-shot clip"
 
 # Refusals.
 "$ragdoll" train --motion "$work/nothing.bvh" > "$work/bad.log" 2>&1
