@@ -4,7 +4,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -25,7 +27,12 @@ struct BakeOptions {
   double fps = 0;      // 0: the control rate
   double phase = 0;
   uint64_t seed = 1;
+  double pushes = 0;      // N s on the pelvis, 0: none
+  double push_every = 2;  // s
 };
+
+// A push lasts 0.2 s, as in DeepMimic's protocol and `eval --pushes`.
+constexpr double kPushSeconds = 0.2;
 
 int Bake(const BakeOptions& o) {
   const std::string format = motion::SceneExportFormat(o.out);
@@ -58,8 +65,10 @@ int Bake(const BakeOptions& o) {
                          : !reference.loop()   ? reference.duration()
                                                : 10.0;
   const int steps = std::max(1, static_cast<int>(std::lround(seconds * rate)));
-  // One episode throughout: no time limit restarts the character half-way.
+  // One episode throughout: no time limit restarts the character half-way, and a push that
+  // carries it away from the reference ends nothing but a fall.
   env.max_episode_steps = std::max(env.max_episode_steps, steps + 1);
+  if (o.pushes > 0) env.max_root_distance = std::numeric_limits<double>::infinity();
   actor::RolloutWorker worker(env, 1, 1, o.seed, "bake");
   worker.SetPolicy(policy.snapshot);
   sim::ImitationEnv& e = worker.environment(0);
@@ -75,19 +84,42 @@ int Bake(const BakeOptions& o) {
 
   std::vector<sim::Pose> frames = {character->QposToPose(e.data().qpos)};
   std::string ending = "";
+  // Pushes in random horizontal directions drawn from the seed, every push_every seconds.
+  std::mt19937_64 rng(o.seed);
+  const int push_steps = std::max(1, static_cast<int>(std::lround(kPushSeconds * rate)));
+  const int push_interval =
+      std::max(push_steps + 1, static_cast<int>(std::lround(o.push_every * rate)));
+  const int pelvis = character->root_body();
+  int pushing = 0, pushes = 0;
   for (int s = 1; s <= steps; ++s) {
     if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / rate) {
       worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
     }
+    if (o.pushes > 0 && (s - 1) % push_interval == 0 && s > 1) {
+      const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
+      const double force = o.pushes / (push_steps / rate);
+      e.SetExternalForce(pelvis, {force * std::cos(angle), force * std::sin(angle), 0});
+      std::fprintf(stderr, "bake: push at %.2f s: %.0f N s on the pelvis toward %.0f deg\n",
+                   (s - 1) / rate, o.pushes, angle * 180 / M_PI);
+      pushing = push_steps;
+      ++pushes;
+    }
     const sim::StepResult r = worker.StepFirst(true);
+    if (pushing > 0 && --pushing == 0) e.SetExternalForce(pelvis, {0, 0, 0});
     frames.push_back(character->QposToPose(e.data().qpos));
     if (r.terminated || r.truncated) {
-      char line[160];
+      char line[200];
       std::snprintf(line, sizeof line, "; the episode %s at %.2f s",
                     r.terminated ? "ended with a fall" : "ended with its clip", e.time());
       ending = line;
       break;
     }
+  }
+  if (pushes > 0) {
+    char line[120];
+    std::snprintf(line, sizeof line, "; %d push%s%s", pushes, pushes == 1 ? "" : "es",
+                  e.episode().task_falls > 0 ? ", fell and got up" : "");
+    ending += line;
   }
   std::vector<double> durations(frames.size(), 1 / rate);
   const int simulated = static_cast<int>(frames.size());
@@ -149,7 +181,14 @@ std::function<int()> AddBakeCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--units", o->units, "m or cm (default: m)")->check(CLI::IsMember({"m", "cm"}));
   cmd->add_option("--up", o->up, "y or z")->check(CLI::IsMember({"y", "z"}))->capture_default_str();
-  cmd->add_option("--seed", o->seed, "episode seed")->capture_default_str();
+  cmd->add_option("--pushes", o->pushes,
+                  "bake reactions: push the pelvis with this impulse (N s, over 0.2 s) in a random "
+                  "horizontal direction every --push-every seconds")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--push-every", o->push_every, "seconds between pushes (--pushes)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--seed", o->seed, "episode seed (and push directions)")->capture_default_str();
   return [cmd, o]() -> int {
     if (!*cmd) return -1;
     return Bake(*o);

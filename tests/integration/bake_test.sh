@@ -4,6 +4,7 @@
 # root as they are), and the BVH as Blender reads it (re-exported by Blender, then imported): joint
 # rotations within 0.5 degrees, the root within 0.5 cm across the floor and at a constant height
 # offset (the import puts the lowest foot on the floor). .fbx and .dae are refused with the reason.
+# --pushes bakes the reactions: the same motion until the first push, another after it.
 #   bake_test.sh RAGDOLL RUN
 set -u
 ragdoll=$1 run=$2
@@ -51,4 +52,16 @@ for ext in fbx dae; do
   "$ragdoll" bake "$run" --out "$work/baked.$ext" > /dev/null 2> "$work/bad.err" && fail ".$ext written"
   grep -q "neither Blender nor Assimp read back" "$work/bad.err" || fail ".$ext: $(cat "$work/bad.err")"
 done
+# --pushes: the same episode until the first push (at 1 s), the pushed one carried away after it.
+"$ragdoll" bake "$run" --out "$work/pushed.json" --seconds 3 --pushes 30 --push-every 1 \
+  2> "$work/pushed.err" || fail "bake --pushes: $(cat "$work/pushed.err")"
+grep -q "push at 1.00 s: 30 N s on the pelvis" "$work/pushed.err" || fail "no push: $(cat "$work/pushed.err")"
+python3 - "$work/baked.json" "$work/pushed.json" << 'PY' || fail "bake --pushes"
+import json, math, sys
+a, b = (json.load(open(p))["frames"] for p in sys.argv[1:3])
+gap = [math.dist(x["root_position"], y["root_position"]) for x, y in zip(a, b)]
+before, after = max(gap[:31]), max(gap[31:])  # frame 30 is at 1 s, 30 frames/s
+print(f"bake --pushes: root {before * 100:.3f} cm from the unpushed bake before the push, up to {after * 100:.1f} cm after")
+sys.exit(0 if before == 0 and after > 0.02 else 1)
+PY
 echo "bake: every written file read back within 0.5 degrees"
