@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -13,6 +14,7 @@
 #include "actor/command_evaluation.h"
 #include "actor/rollout.h"
 #include "actor/sim/motion_io.h"
+#include "cli/child_process.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
 #include "motion/retarget.h"
@@ -34,18 +36,62 @@ struct BakeOptions {
 // A push lasts 0.2 s, as in DeepMimic's protocol and `eval --pushes`.
 constexpr double kPushSeconds = 0.2;
 
+// Blender converts the baked BVH to FBX (motion/blender/convert.py): Assimp 5.2's FBX writer
+// made files that neither Blender nor Assimp read back. RAGDOLL_BLENDER names another
+// Blender than the one on the PATH.
+constexpr double kBlenderTimeoutSeconds = 600;
+
+void ConvertWithBlender(const std::string& bvh_text, const std::string& out) {
+  const char* chosen = std::getenv("RAGDOLL_BLENDER");
+  const std::string blender = chosen && *chosen ? chosen : "blender";
+  // The BVH's name becomes the armature's and the animation's in the FBX: the output's own.
+  std::string folder = (std::filesystem::temp_directory_path() / "ragdoll-bake.XXXXXX").string();
+  if (!mkdtemp(folder.data())) throw std::runtime_error(folder + ": cannot create");
+  struct RemoveOnExit {
+    std::string path;
+    ~RemoveOnExit() {
+      std::error_code ignored;
+      std::filesystem::remove_all(path, ignored);
+    }
+  } remove_folder{folder};
+  const std::string bvh = folder + "/" + std::filesystem::path(out).stem().string() + ".bvh";
+  const std::string log = out + ".blender.log";
+  {
+    std::ofstream file(bvh);
+    file << bvh_text;
+    if (!file.flush()) throw std::runtime_error(bvh + ": cannot write");
+  }
+  const int code =
+      RunProcess({blender, "-b", "--factory-startup", "--python",
+                  std::string(RAGDOLL_BLENDER_SCRIPTS_DIR) + "/convert.py", "--", bvh, out},
+                 log, kBlenderTimeoutSeconds);
+  if (code == 127) {
+    std::filesystem::remove(log);
+    throw ConfigError("bake --out " + out + ": FBX is written by Blender, and '" + blender +
+                      "' could not be run (apt install blender, or set RAGDOLL_BLENDER); .bvh "
+                      "and .glb need nothing more");
+  }
+  if (code != 0 || !std::filesystem::exists(out)) {
+    throw std::runtime_error("bake --out " + out + ": Blender did not write it (" +
+                             (code < 0 ? "timed out" : "exit code " + std::to_string(code)) +
+                             "): " + LastLine(log) + "; its log: " + log);
+  }
+  std::filesystem::remove(log);
+}
+
 int Bake(const BakeOptions& o) {
   const std::string format = motion::SceneExportFormat(o.out);
   const std::string ext = std::filesystem::path(o.out).extension().string();
   const bool bvh = ext == ".bvh", json = ext == ".json";
-  if (ext == ".fbx" || ext == ".dae") {
+  if (ext == ".dae") {
     throw ConfigError("bake --out " + o.out +
-                      ": not written yet: Assimp 5.2's FBX and COLLADA writers made files that "
-                      "neither Blender nor Assimp read back; write .bvh or .glb and convert them "
-                      "in Blender (File > Import > Motion Capture, then File > Export)");
+                      ": COLLADA is not written: Assimp 5.2's COLLADA file came into Blender with "
+                      "one frame of its animation, and Blender 3.4's own came back into Blender "
+                      "6.9 degrees off with its frame rate lost; write .fbx, .glb or .bvh");
   }
-  if (!bvh && !json && format.empty()) {
-    throw ConfigError("bake --out " + o.out + ": give a .bvh, .glb or .json file");
+  const bool by_blender = ext == ".fbx";
+  if (!bvh && !json && !by_blender && format.empty()) {
+    throw ConfigError("bake --out " + o.out + ": give a .bvh, .fbx, .glb or .json file");
   }
   const TrainedPolicy policy = LoadTrainedPolicy(o.target);
   sim::EnvConfig env = policy.experiment.environment;
@@ -143,6 +189,8 @@ int Bake(const BakeOptions& o) {
     std::ofstream out(o.out);
     out << text;
     if (!out) throw std::runtime_error(o.out + ": cannot write");
+  } else if (by_blender) {
+    ConvertWithBlender(text, o.out);
   } else {
     motion::ExportBvhAsScene(text, o.out);
   }
@@ -160,11 +208,13 @@ int Bake(const BakeOptions& o) {
 
 std::function<int()> AddBakeCommand(CLI::App& app) {
   auto o = std::make_shared<BakeOptions>();
-  auto* cmd = app.add_subcommand(
-      "bake", "the trained policy's simulated motion as an animation file (BVH, glTF binary)");
+  auto* cmd = app.add_subcommand("bake",
+                                 "the trained policy's simulated motion as an animation file (BVH, "
+                                 "FBX, glTF binary, COLLADA)");
   cmd->add_option("run", o->target, "run folder or checkpoint")->required();
   cmd->add_option("--out", o->out,
-                  "file to write: .bvh or .glb (or .json: the project's clip format)")
+                  "file to write: .bvh, .glb, .fbx (by Blender), or .json "
+                  "(the project's clip format)")
       ->required();
   cmd->add_option("--seconds", o->seconds,
                   "how long to simulate (default: a one-shot clip's length, else 10 s)")

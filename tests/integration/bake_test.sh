@@ -3,7 +3,9 @@
 # (.json) against the BVH and glTF binary it writes, each imported by `motion import` (feet and
 # root as they are), and the BVH as Blender reads it (re-exported by Blender, then imported): joint
 # rotations within 0.5 degrees, the root within 0.5 cm across the floor and at a constant height
-# offset (the import puts the lowest foot on the floor). .fbx and .dae are refused with the reason.
+# offset (the import puts the lowest foot on the floor). The FBX Blender writes from the bake, read
+# by Blender and by `motion import`, the same; .dae is refused with the reason, and .fbx without
+# Blender.
 # --pushes bakes the reactions: the same motion until the first push, another after it.
 #   bake_test.sh RAGDOLL RUN
 set -u
@@ -13,7 +15,7 @@ work=$(mktemp -d /tmp/ragdoll-bake.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
 command -v blender > /dev/null || fail "blender is not installed (deploy/setup.sh installs it)"
-for ext in json bvh glb; do
+for ext in json bvh glb fbx; do
   "$ragdoll" bake "$run" --out "$work/baked.$ext" --seconds 3 2> "$work/$ext.err" ||
     fail "bake .$ext: $(cat "$work/$ext.err")"
 done
@@ -43,15 +45,26 @@ import_back "$work/baked.bvh" "$work/bvh.json"
 compare "$work/baked.json" "$work/bvh.json" "BVH, motion import" || fail "BVH round trip"
 import_back "$work/baked.glb" "$work/glb.json"
 compare "$work/baked.json" "$work/glb.json" "GLB (Assimp), motion import" || fail "GLB round trip"
-blender -b --factory-startup --python "$here/blender_bvh_roundtrip.py" -- "$work/baked.bvh" \
+blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.bvh" \
   "$work/blender.bvh" > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender"; }
 grep "^blender read" "$work/blender.log"
 import_back "$work/blender.bvh" "$work/blender.json"
 compare "$work/baked.json" "$work/blender.json" "BVH as Blender reads it" || fail "Blender round trip"
-for ext in fbx dae; do
-  "$ragdoll" bake "$run" --out "$work/baked.$ext" > /dev/null 2> "$work/bad.err" && fail ".$ext written"
-  grep -q "neither Blender nor Assimp read back" "$work/bad.err" || fail ".$ext: $(cat "$work/bad.err")"
-done
+# FBX, written by Blender from the baked BVH: read by Blender, and by motion import (Assimp).
+blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.fbx" \
+  "$work/blender_fbx.bvh" > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender fbx"; }
+grep "^blender read" "$work/blender.log"
+import_back "$work/blender_fbx.bvh" "$work/blender_fbx.json"
+compare "$work/baked.json" "$work/blender_fbx.json" "FBX as Blender reads it" || fail "FBX in Blender"
+import_back "$work/baked.fbx" "$work/fbx.json"
+compare "$work/baked.json" "$work/fbx.json" "FBX, motion import" || fail "FBX round trip"
+ls "$work"/*.blender.log 2> /dev/null && fail "Blender's log left behind"
+"$ragdoll" bake "$run" --out "$work/baked.dae" > /dev/null 2> "$work/bad.err" && fail ".dae written"
+grep -q "COLLADA is not written" "$work/bad.err" || fail ".dae: $(cat "$work/bad.err")"
+RAGDOLL_BLENDER=/nonexistent/blender "$ragdoll" bake "$run" --out "$work/none.fbx" --seconds 1 \
+  > /dev/null 2> "$work/bad.err" && fail ".fbx written without Blender"
+grep -q "could not be run (apt install blender" "$work/bad.err" || fail "no Blender: $(cat "$work/bad.err")"
+
 # --pushes: the same episode until the first push (at 1 s), the pushed one carried away after it.
 "$ragdoll" bake "$run" --out "$work/pushed.json" --seconds 3 --pushes 30 --push-every 1 \
   2> "$work/pushed.err" || fail "bake --pushes: $(cat "$work/pushed.err")"

@@ -36,7 +36,7 @@ for l in lines[top + 1:]:
         frames.append(" ".join(v))
 open(sys.argv[2], "w").write("\n".join(lines[: top + 1] + frames) + "\n")
 PY
-  blender -b --factory-startup --python "$here/blender_convert.py" -- "$work/${name}_In_Place.bvh" \
+  blender -b --factory-startup --python "$here/../../motion/blender/convert.py" -- "$work/${name}_In_Place.bvh" \
     "$work/${name}_In_Place.fbx" > "$work/blender.log" 2>&1 ||
     { tail -n 20 "$work/blender.log"; fail "$name: blender"; }
   "$ragdoll" motion import "$work/${name}_In_Place.fbx" --loop --out "$work/$name.json" \

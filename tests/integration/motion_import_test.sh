@@ -161,7 +161,7 @@ for name in 01_01 Boxing_Toes dm_walk; do
   for ext in "${formats[@]}"; do
     from=$src ref=$work/$name.json
     [ $ext = dae ] && from=$work/$name.head.bvh ref=$work/$name.head.json
-    blender -b --factory-startup --python "$here/blender_convert.py" -- "$from" "$work/$name.$ext" \
+    blender -b --factory-startup --python "$here/../../motion/blender/convert.py" -- "$from" "$work/$name.$ext" \
       > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender $name.$ext"; }
     [ -s "$work/$name.$ext" ] || { tail -n 20 "$work/blender.log"; fail "blender wrote no $name.$ext"; }
     # Blender bakes the scene's frame range; take the BVH's frames.

@@ -1,7 +1,7 @@
 # Converts a BVH file into FBX (binary, as Blender and Autodesk's tools write it), glTF binary
-# or COLLADA with Blender's own importer and exporters, to test the readers on files another
-# program wrote:
-#   blender -b --factory-startup --python blender_convert.py -- IN.bvh OUT.{fbx,glb,dae}
+# or COLLADA with Blender's own importer and exporters: `ragdoll bake --out FILE.fbx|.dae` runs
+# it on the BVH it bakes, and the tests make files another program wrote with it:
+#   blender -b --factory-startup --python convert.py -- IN.bvh OUT.{fbx,glb,dae}
 import os
 import sys
 
@@ -21,4 +21,4 @@ elif target.endswith(".glb"):
 elif target.endswith(".dae"):
     bpy.ops.wm.collada_export(filepath=target)
 else:
-    sys.exit("blender_convert.py: write .fbx, .glb or .dae, not " + target)
+    sys.exit("convert.py: write .fbx, .glb or .dae, not " + target)

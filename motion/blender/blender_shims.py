@@ -1,6 +1,6 @@
 # Debian 12's Blender 3.4 add-ons predate its numpy 1.24 (np.bool) and Python 3.11 (open mode
 # "U"); importing this module restores only what those add-ons expect. Imported by the Blender
-# scripts beside it, before bpy.
+# scripts (convert.py beside it, the tests' own), before bpy.
 import builtins
 
 import numpy
