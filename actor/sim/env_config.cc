@@ -147,6 +147,7 @@ void ReadRecovery(const ConfigSection& parent, RecoveryConfig* c) {
   c->get_up_reward_scale = NonNegative(s, "get_up_reward_scale", c->get_up_reward_scale);
   if (c->get_up_reward_scale > 1) s.Fail("get_up_reward_scale", "must be in [0, 1]");
   c->give_up_after = Positive(s, "give_up_after", c->give_up_after);
+  c->early_termination = s.Get<bool>("early_termination", c->early_termination);
   s.Finish();
 }
 }  // namespace

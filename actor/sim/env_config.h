@@ -102,6 +102,9 @@ struct RecoveryConfig {
   double get_up_reward_scale = 0.5;
   // Still getting up this long after a fall (or a fallen start), s: the episode ends as a fall.
   double give_up_after = 8.0;
+  // While getting up, a body the get-up clip keeps off the floor (kContactRichHeight) touching it
+  // ends the episode as a fall: DeepMimic's early termination, applied to the get-up too.
+  bool early_termination = false;
   bool enabled() const { return !face_down.empty(); }
 };
 

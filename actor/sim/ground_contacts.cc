@@ -5,7 +5,8 @@
 namespace ragdoll::sim {
 
 std::vector<std::pair<std::string, double>> GroundContactFractions(const MotionClip& clip,
-                                                                   const Character& character) {
+                                                                   const Character& character,
+                                                                   double height) {
   const mjModel* m = character.model();
   DataPtr d = character.MakeData();
   const int frames = clip.num_frames();
@@ -16,7 +17,7 @@ std::vector<std::pair<std::string, double>> GroundContactFractions(const MotionC
     std::vector<char> touches(m->nbody, 0);
     for (int g = 0; g < m->ngeom; ++g) {
       if (m->geom_bodyid[g] == 0) continue;
-      if (GeomLowestPoint(m, d.get(), g) < kGroundContactHeight) touches[m->geom_bodyid[g]] = 1;
+      if (GeomLowestPoint(m, d.get(), g) < height) touches[m->geom_bodyid[g]] = 1;
     }
     for (int b = 0; b < m->nbody; ++b) body_contact_frames[b] += touches[b];
   }

@@ -73,7 +73,17 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
     }
     const MotionClip& base = *set.entry(inner_->StartEntry(set)).clip;
     stand_height_ = StandHeight(base);
+    get_up_may_touch_.assign(set.size(), {});
+    for (int entry : {face_down_, face_up_}) {
+      std::vector<char>& may_touch = get_up_may_touch_[entry];
+      may_touch = may_touch_ground_;
+      for (const auto& [body, share] :
+           GroundContactFractions(*set.entry(entry).clip, character, kContactRichHeight)) {
+        may_touch[mj_name2id(character.model(), mjOBJ_BODY, body.c_str())] = 1;
+      }
+    }
   }
+  touched_outside_ = false;
   falls_ = 0;
   recovering_steps_ = 0;
   down_steps_ = 0;
@@ -115,6 +125,10 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   }
   ++recovering_steps_;
   ++down_steps_;
+  if (config_.early_termination &&
+      TouchesGroundOutside(env.character().model(), env.data(), get_up_may_touch_[get_up_entry_])) {
+    touched_outside_ = true;
+  }
   if (env.time() < env.clip().duration() - 1e-9) return false;
   // The get-up has played: standing, the task underneath leads again; if not, get up again
   // from where the character is.
@@ -128,7 +142,8 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
 }
 
 bool RecoveryTask::failed() const {
-  return get_up_entry_ >= 0 && down_steps_ * control_dt_ > config_.give_up_after;
+  return get_up_entry_ >= 0 &&
+         (touched_outside_ || down_steps_ * control_dt_ > config_.give_up_after);
 }
 
 std::optional<double> RecoveryTask::reference_heading() const {

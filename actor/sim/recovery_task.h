@@ -43,7 +43,8 @@ class RecoveryTask final : public Task {
   bool Advance(TaskHost& env, std::mt19937_64& rng) override;
   std::optional<double> reference_heading() const override;
   bool falls_end_episode() const override { return false; }
-  // Still getting up config.recovery.give_up_after seconds after the get-up began.
+  // Still getting up config.recovery.give_up_after seconds after the get-up began, or (with
+  // early_termination) touched the floor with a body the get-up clip keeps off it.
   bool failed() const override;
   double imitation_scale() const override;
   double Reward(const TaskHost& env, const PoseFeatures& character) override;
@@ -64,7 +65,10 @@ class RecoveryTask final : public Task {
   std::unique_ptr<Task> inner_;
   int inner_figures_ = 0;
   std::vector<char> may_touch_ground_;  // per body, from the base clips; filled at the first start
-  double stand_height_ = 0;             // m: StandHeight of the base clip
+  // Per motion set entry (the get-up clips'), per body: may touch the floor while getting up.
+  std::vector<std::vector<char>> get_up_may_touch_;
+  bool touched_outside_ = false;  // while getting up (early_termination)
+  double stand_height_ = 0;       // m: StandHeight of the base clip
   Beginning start_ = Beginning::kStanding;
   int start_entry_ = -1;   // the get-up clip an episode starts in (kGettingUp)
   int get_up_entry_ = -1;  // the get-up clip imitated now; -1: the inner task leads

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "actor/sim/falls.h"
+#include "actor/sim/ground_contacts.h"
 #include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_io.h"
 #include "actor/sim/observation.h"
@@ -45,13 +46,14 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EnvConfig c = Read(head +
                      "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n"
                      "    start_fallen: 0.4\n    start_getting_up: 0.1\n"
-                     "    get_up_reward_scale: 0.3\n");
+                     "    get_up_reward_scale: 0.3\n    early_termination: true\n");
   EXPECT_TRUE(c.recovery.enabled());
   EXPECT_EQ(c.recovery.face_down, "motions/deepmimic/humanoid3d_getup_facedown.txt");
   EXPECT_EQ(c.recovery.face_up, "motions/deepmimic/humanoid3d_getup_faceup.txt");
   EXPECT_DOUBLE_EQ(c.recovery.start_fallen, 0.4);
   EXPECT_DOUBLE_EQ(c.recovery.start_getting_up, 0.1);
   EXPECT_DOUBLE_EQ(c.recovery.get_up_reward_scale, 0.3);
+  EXPECT_TRUE(c.recovery.early_termination);
   EXPECT_FALSE(Read("environment:\n  motion: motions/walk.json\n").recovery.enabled());
 
   EXPECT_NE(ErrorOf(head).find("face_up"), std::string::npos);
@@ -174,6 +176,63 @@ TEST_F(RecoveryEnvTest, StillDownTooLongEndsTheEpisode) {
   EXPECT_TRUE(step.terminated);
   EXPECT_EQ(env->episode().end, EpisodeEnd::kFell);
   EXPECT_EQ(steps, 1 + 61);  // the step that saw the fall, then just over 2 s at 30 Hz
+}
+
+// Held in settled face-down falls (the state set again before every step), the episode ends at
+// the give-up without early_termination; with it, as soon as the get-up's physics puts a body on
+// the floor that the face-down clip keeps more than kContactRichHeight off it, in some of them
+// well before. Followed exactly, a get-up is never ended by it (its own contacts are allowed).
+TEST_F(RecoveryEnvTest, EarlyTerminationEndsAGetUpOnABodyTheClipKeepsUp) {
+  config_.recovery.give_up_after = 2.0;
+  std::vector<std::vector<double>> fallen_qpos, fallen_qvel;
+  std::mt19937_64 rng(7);
+  auto probe = Make();
+  while (fallen_qpos.size() < 6) {
+    const FallenState fallen = SettledFall(*character_, probe->clip(), rng);
+    if (fallen.posture != Posture::kFaceDown) continue;
+    fallen_qpos.push_back(fallen.qpos);
+    fallen_qvel.push_back(fallen.qvel);
+  }
+  auto steps_held = [&](bool early_termination) {
+    config_.recovery.early_termination = early_termination;
+    auto env = Make();
+    std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+    std::vector<int> steps;
+    for (size_t t = 0; t < fallen_qpos.size(); ++t) {
+      env->Reset(obs.data());
+      StepResult step;
+      int n = 0;
+      do {
+        env->SetState(fallen_qpos[t].data(), fallen_qvel[t].data());
+        step = env->Step(action.data(), obs.data());
+        ++n;
+      } while (!step.terminated && n < 200);
+      EXPECT_EQ(env->episode().end, EpisodeEnd::kFell);
+      steps.push_back(n);
+    }
+    return steps;
+  };
+  const std::vector<int> without = steps_held(false), with = steps_held(true);
+  int earlier = 0;
+  for (size_t t = 0; t < with.size(); ++t) {
+    EXPECT_EQ(without[t], 1 + 61);  // the step that saw the fall, then just over 2 s at 30 Hz
+    EXPECT_LE(with[t], without[t]);
+    earlier += with[t] < without[t] ? 1 : 0;
+  }
+  EXPECT_GT(earlier, 0);
+
+  config_.recovery.early_termination = true;
+  config_.recovery.start_getting_up = 1;
+  auto env = Make(3);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  for (int s = 0; s < 200 && Recovery(*env).recovering(); ++s) {
+    env->ReferenceState(env->time(), qpos.data(), qvel.data());
+    env->SetState(qpos.data(), qvel.data());
+    ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated) << "step " << s;
+  }
+  EXPECT_FALSE(Recovery(*env).recovering());
 }
 
 // A get-up followed exactly (the state set to the reference's at every step) stands at the
