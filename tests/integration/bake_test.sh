@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `ragdoll bake` on the shipped steering policy, read back by real clients: the simulated motion
 # (.json) against the BVH and glTF binary it writes, each imported by `motion import` (feet and
-# root as they are), and the BVH as Blender reads it (re-exported by Blender, then imported): joint
+# root as they are), and each as Blender reads it (re-exported by Blender, then imported): joint
 # rotations within 0.5 degrees, the root within 0.5 cm across the floor and at a constant height
 # offset (the import puts the lowest foot on the floor). The FBX Blender writes from the bake, read
 # by Blender and by `motion import`, the same; .dae is refused with the reason, and .fbx without
@@ -50,6 +50,12 @@ blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.
 grep "^blender read" "$work/blender.log"
 import_back "$work/blender.bvh" "$work/blender.json"
 compare "$work/baked.json" "$work/blender.json" "BVH as Blender reads it" || fail "Blender round trip"
+# The GLB as Blender's glTF importer reads it (its keys are times: the scene set to 30 frames/s).
+blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.glb" \
+  "$work/blender_glb.bvh" 30 > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender glb"; }
+grep "^blender read" "$work/blender.log"
+import_back "$work/blender_glb.bvh" "$work/blender_glb.json"
+compare "$work/baked.json" "$work/blender_glb.json" "GLB as Blender reads it" || fail "GLB in Blender"
 # FBX, written by Blender from the baked BVH: read by Blender, and by motion import (Assimp).
 blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.fbx" \
   "$work/blender_fbx.bvh" > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender fbx"; }

@@ -1,6 +1,7 @@
 # Blender reads an animation file (BVH, FBX, COLLADA, glTF) with its own importer and writes the
 # animation back as BVH, to check what Blender reads of a file the project wrote:
-#   blender -b --factory-startup --python blender_to_bvh.py -- IN.{bvh,fbx,dae,glb} OUT.bvh
+#   blender -b --factory-startup --python blender_to_bvh.py -- IN.{bvh,fbx,dae,glb} OUT.bvh [FPS]
+# FPS: the scene's frame rate before the import (glTF keys are times, placed on its frames).
 import os
 import sys
 
@@ -9,8 +10,11 @@ sys.path.insert(0, os.path.join(here, "..", "..", "motion", "blender"))
 import blender_shims  # noqa: E402,F401  (before bpy)
 import bpy  # noqa: E402
 
-source, target = sys.argv[sys.argv.index("--") + 1:][:2]
+arguments = sys.argv[sys.argv.index("--") + 1:]
+source, target = arguments[:2]
 bpy.ops.wm.read_factory_settings(use_empty=True)
+if len(arguments) > 2:
+    bpy.context.scene.render.fps = int(arguments[2])
 if source.endswith(".bvh"):
     bpy.ops.import_anim.bvh(filepath=source, axis_forward="-Z", axis_up="Y", update_scene_fps=True,
                             update_scene_duration=True)
