@@ -45,23 +45,19 @@ import_back "$work/baked.bvh" "$work/bvh.json"
 compare "$work/baked.json" "$work/bvh.json" "BVH, motion import" || fail "BVH round trip"
 import_back "$work/baked.glb" "$work/glb.json"
 compare "$work/baked.json" "$work/glb.json" "GLB (Assimp), motion import" || fail "GLB round trip"
-blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.bvh" \
-  "$work/blender.bvh" > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender"; }
-grep "^blender read" "$work/blender.log"
-import_back "$work/blender.bvh" "$work/blender.json"
-compare "$work/baked.json" "$work/blender.json" "BVH as Blender reads it" || fail "Blender round trip"
-# The GLB as Blender's glTF importer reads it (its keys are times: the scene set to 30 frames/s).
-blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.glb" \
-  "$work/blender_glb.bvh" 30 > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender glb"; }
-grep "^blender read" "$work/blender.log"
-import_back "$work/blender_glb.bvh" "$work/blender_glb.json"
-compare "$work/baked.json" "$work/blender_glb.json" "GLB as Blender reads it" || fail "GLB in Blender"
-# FBX, written by Blender from the baked BVH: read by Blender, and by motion import (Assimp).
-blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.fbx" \
-  "$work/blender_fbx.bvh" > "$work/blender.log" 2>&1 || { tail -n 20 "$work/blender.log"; fail "blender fbx"; }
-grep "^blender read" "$work/blender.log"
-import_back "$work/blender_fbx.bvh" "$work/blender_fbx.json"
-compare "$work/baked.json" "$work/blender_fbx.json" "FBX as Blender reads it" || fail "FBX in Blender"
+# in_blender EXT [FPS]: the baked file as Blender's importer reads it (written back as BVH by
+# Blender, then imported), against the simulation.
+in_blender() {
+  blender -b --factory-startup --python "$here/blender_to_bvh.py" -- "$work/baked.$1" \
+    "$work/blender_$1.bvh" ${2:-} > "$work/blender.log" 2>&1 ||
+    { tail -n 20 "$work/blender.log"; fail "blender $1"; }
+  grep "^blender read" "$work/blender.log"
+  import_back "$work/blender_$1.bvh" "$work/blender_$1.json"
+  compare "$work/baked.json" "$work/blender_$1.json" "$1 as Blender reads it" || fail "$1 in Blender"
+}
+in_blender bvh
+in_blender glb 30  # glTF keys are times: the scene set to 30 frames/s places them on its frames
+in_blender fbx     # written by Blender from the baked BVH; read by motion import (Assimp) too:
 import_back "$work/baked.fbx" "$work/fbx.json"
 compare "$work/baked.json" "$work/fbx.json" "FBX, motion import" || fail "FBX round trip"
 ls "$work"/*.blender.log 2> /dev/null && fail "Blender's log left behind"

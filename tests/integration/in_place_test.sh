@@ -22,22 +22,10 @@ for entry in "${clips[@]}"; do
   name=${entry%%=*} clip=${entry#*=}
   "$ragdoll" motion export "$clip" --naming mixamo --out "$work/$name.bvh" 2> /dev/null ||
     fail "$name: export"
-  python3 - "$work/$name.bvh" "$work/${name}_In_Place.bvh" << 'PY' || fail "$name: in-place copy"
-import sys
-lines = open(sys.argv[1]).read().split("\n")
-top = next(i for i, l in enumerate(lines) if l.startswith("Frame Time"))
-channels = next(l for l in lines if "CHANNELS" in l).split()[2:]
-x, z = channels.index("Xposition"), channels.index("Zposition")  # Y is up
-frames = []
-for l in lines[top + 1:]:
-    if l.strip():
-        v = l.split()
-        v[x] = v[z] = "0"
-        frames.append(" ".join(v))
-open(sys.argv[2], "w").write("\n".join(lines[: top + 1] + frames) + "\n")
-PY
-  blender -b --factory-startup --python "$here/../../motion/blender/convert.py" -- "$work/${name}_In_Place.bvh" \
-    "$work/${name}_In_Place.fbx" > "$work/blender.log" 2>&1 ||
+  python3 "$here/in_place_copy.py" "$work/$name.bvh" "$work/${name}_In_Place.bvh" ||
+    fail "$name: in-place copy"
+  blender -b --factory-startup --python "$here/../../motion/blender/convert.py" -- \
+    "$work/${name}_In_Place.bvh" "$work/${name}_In_Place.fbx" > "$work/blender.log" 2>&1 ||
     { tail -n 20 "$work/blender.log"; fail "$name: blender"; }
   "$ragdoll" motion import "$work/${name}_In_Place.fbx" --loop --out "$work/$name.json" \
     > "$work/$name.import" 2>&1 || fail "$name: import: $(tail -n 3 "$work/$name.import")"

@@ -10,6 +10,7 @@
 #   train_motion_test.sh RAGDOLL ASSETS_DIR
 set -u
 ragdoll=$1 assets=$2
+here=$(cd "$(dirname "$0")" && pwd)
 work=$(mktemp -d /tmp/ragdoll-train-motion.XXXXXX)
 # Below 32768, where Linux takes the local ports of outgoing connections.
 port=$((29700 + 50 * (RANDOM % 20)))
@@ -36,20 +37,7 @@ train_one_update() {
 # The walk, in place.
 "$ragdoll" motion export "$assets/motions/walk.json" --out "$work/walk.bvh" 2> /dev/null ||
   fail "export"
-python3 - "$work/walk.bvh" "$work/Walking_In_Place.bvh" << 'PY' || fail "in-place copy"
-import sys
-lines = open(sys.argv[1]).read().split("\n")
-top = next(i for i, l in enumerate(lines) if l.startswith("Frame Time"))
-channels = next(l for l in lines if "CHANNELS" in l).split()[2:]
-x, z = channels.index("Xposition"), channels.index("Zposition")
-frames = []
-for l in lines[top + 1:]:
-    if l.strip():
-        v = l.split()
-        v[x] = v[z] = "0"
-        frames.append(" ".join(v))
-open(sys.argv[2], "w").write("\n".join(lines[: top + 1] + frames) + "\n")
-PY
+python3 "$here/in_place_copy.py" "$work/walk.bvh" "$work/Walking_In_Place.bvh" || fail "in-place copy"
 train_one_update "$work/walk.log" --motion "$work/Walking_In_Place.bvh" --run-id walk
 grep -q "root motion: in place" "$work/walk.log" || fail "no root motion rebuilt: $(grep 'root motion' "$work/walk.log")"
 grep -q "loop: yes" "$work/walk.log" || fail "the loop was not found: $(grep 'loop:' "$work/walk.log")"
