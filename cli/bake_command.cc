@@ -1,5 +1,6 @@
 #include "cli/bake_command.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -33,8 +34,41 @@ struct BakeOptions {
   double push_every = 2;  // s
 };
 
-// A push lasts 0.2 s, as in DeepMimic's protocol and `eval --pushes`.
-constexpr double kPushSeconds = 0.2;
+// Pushes on the pelvis (bake --pushes) in random horizontal directions drawn from the seed, one
+// every `every` seconds, each lasting 0.2 s as in DeepMimic's protocol and `eval --pushes`.
+class PushSchedule {
+ public:
+  PushSchedule(double impulse, double every, double rate, uint64_t seed, int pelvis)
+      : impulse_(impulse),
+        rate_(rate),
+        steps_(std::max(1, static_cast<int>(std::lround(0.2 * rate)))),
+        interval_(std::max(steps_ + 1, static_cast<int>(std::lround(every * rate)))),
+        pelvis_(pelvis),
+        rng_(seed) {}
+
+  // Before control step `step` (1-based): starts the push that falls due.
+  void Before(int step, sim::ImitationEnv& env) {
+    if (!(impulse_ > 0) || step == 1 || (step - 1) % interval_ != 0) return;
+    const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng_);
+    const double force = impulse_ / (steps_ / rate_);
+    env.SetExternalForce(pelvis_, {force * std::cos(angle), force * std::sin(angle), 0});
+    std::fprintf(stderr, "bake: push at %.2f s: %.0f N s on the pelvis toward %.0f deg\n",
+                 (step - 1) / rate_, impulse_, angle * 180 / M_PI);
+    left_ = steps_;
+    ++count_;
+  }
+  // After a control step: ends the push that has lasted its time.
+  void After(sim::ImitationEnv& env) {
+    if (left_ > 0 && --left_ == 0) env.SetExternalForce(pelvis_, {0, 0, 0});
+  }
+  int count() const { return count_; }
+
+ private:
+  double impulse_, rate_;
+  int steps_, interval_, pelvis_;
+  std::mt19937_64 rng_;
+  int left_ = 0, count_ = 0;
+};
 
 // Blender converts the baked BVH to FBX (motion/blender/convert.py): Assimp 5.2's FBX writer
 // made files that neither Blender nor Assimp read back. RAGDOLL_BLENDER names another
@@ -130,28 +164,14 @@ int Bake(const BakeOptions& o) {
 
   std::vector<sim::Pose> frames = {character->QposToPose(e.data().qpos)};
   std::string ending = "";
-  // Pushes in random horizontal directions drawn from the seed, every push_every seconds.
-  std::mt19937_64 rng(o.seed);
-  const int push_steps = std::max(1, static_cast<int>(std::lround(kPushSeconds * rate)));
-  const int push_interval =
-      std::max(push_steps + 1, static_cast<int>(std::lround(o.push_every * rate)));
-  const int pelvis = character->root_body();
-  int pushing = 0, pushes = 0;
+  PushSchedule pushes(o.pushes, o.push_every, rate, o.seed, character->root_body());
   for (int s = 1; s <= steps; ++s) {
     if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / rate) {
       worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
     }
-    if (o.pushes > 0 && (s - 1) % push_interval == 0 && s > 1) {
-      const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
-      const double force = o.pushes / (push_steps / rate);
-      e.SetExternalForce(pelvis, {force * std::cos(angle), force * std::sin(angle), 0});
-      std::fprintf(stderr, "bake: push at %.2f s: %.0f N s on the pelvis toward %.0f deg\n",
-                   (s - 1) / rate, o.pushes, angle * 180 / M_PI);
-      pushing = push_steps;
-      ++pushes;
-    }
+    pushes.Before(s, e);
     const sim::StepResult r = worker.StepFirst(true);
-    if (pushing > 0 && --pushing == 0) e.SetExternalForce(pelvis, {0, 0, 0});
+    pushes.After(e);
     frames.push_back(character->QposToPose(e.data().qpos));
     if (r.terminated || r.truncated) {
       char line[200];
@@ -161,9 +181,10 @@ int Bake(const BakeOptions& o) {
       break;
     }
   }
-  if (pushes > 0) {
+  if (pushes.count() > 0) {
     char line[120];
-    std::snprintf(line, sizeof line, "; %d push%s%s", pushes, pushes == 1 ? "" : "es",
+    std::snprintf(line, sizeof line, "; %d push%s%s", pushes.count(),
+                  pushes.count() == 1 ? "" : "es",
                   e.episode().task_falls > 0 ? ", fell and got up" : "");
     ending += line;
   }
