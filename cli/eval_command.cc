@@ -14,6 +14,7 @@
 #include "actor/push_evaluation.h"
 #include "actor/recovery_evaluation.h"
 #include "actor/sim/character.h"
+#include "actor/sim/motion_io.h"
 #include "actor/sim/motion_set.h"
 #include "cli/trained_policy.h"
 #include "common/config_section.h"
@@ -72,10 +73,10 @@ struct WholeClip {
 
 std::optional<WholeClip> EvaluateWholeClip(const sim::EnvConfig& env, const TrainedPolicy& policy,
                                            uint64_t seed) {
-  if (env.steering.enabled()) return std::nullopt;
-  auto character = sim::Character::Load(env.character, env.physics_dt());
-  auto motions = sim::LoadMotionSet(env, *character);
-  if (motions->size() != 1 || motions->entry(0).clip->loop()) return std::nullopt;
+  // Steering and recovery switch clips; a looping clip has no first frame to be judged from.
+  if (env.steering.enabled() || env.recovery.enabled() || sim::LoadMotion(env.motion).loop()) {
+    return std::nullopt;
+  }
   sim::EnvConfig from_start = env;
   from_start.random_start = false;
   from_start.start_phase = 0;

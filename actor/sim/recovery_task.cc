@@ -73,8 +73,10 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
     }
     const MotionClip& base = *set.entry(inner_->StartEntry(set)).clip;
     stand_height_ = StandHeight(base);
+    // Only early_termination looks at which bodies a get-up lets touch the floor.
     get_up_may_touch_.assign(set.size(), {});
     for (int entry : {face_down_, face_up_}) {
+      if (!config_.early_termination) continue;
       std::vector<char>& may_touch = get_up_may_touch_[entry];
       may_touch = may_touch_ground_;
       for (const auto& [body, share] :
