@@ -141,6 +141,8 @@ class PlaySession {
     // after.
     Draw();
     start_ = Clock::now();
+    // Said once the clock runs, so a script driving the window knows its keys will count.
+    std::fprintf(stderr, "play: started\n");
     double due = 0;  // when the next control step is due, wall seconds from the start
     while (!stop.load() && !keys_.quit && renderer_.PollEvents()) {
       const double now = SecondsSince(start_);

@@ -20,7 +20,8 @@ export DISPLAY=$display
 for _ in $(seq 1 50); do xdotool getdisplaygeometry > /dev/null 2>&1 && break; sleep 0.1; done
 xdotool getdisplaygeometry > /dev/null 2>&1 || fail "Xvfb did not start: $(cat "$work/xvfb.log")"
 
-# start_play ARGS...: `ragdoll play ARGS` in the background, output in $work/play.out; sets $wid.
+# start_play ARGS...: `ragdoll play ARGS` in the background, output in $work/play.out; sets $wid
+# and returns once the simulation runs.
 start_play() {
   "$ragdoll" play "$@" > "$work/play.out" 2>&1 &
   play=$!
@@ -32,4 +33,13 @@ start_play() {
     sleep 0.1
   done
   [ -n "$wid" ] || { cat "$work/play.out"; fail "no 'ragdoll play' window appeared"; }
+  # The window is there before its first frame is drawn (slow in software GL on a loaded
+  # machine): keys count only once play says its clock runs.
+  for _ in $(seq 1 600); do
+    grep -q '^play: started' "$work/play.out" && return
+    kill -0 "$play" 2> /dev/null || break
+    sleep 0.1
+  done
+  cat "$work/play.out"
+  fail "'ragdoll play' did not start its clock within 60 s"
 }
