@@ -148,6 +148,9 @@ void ReadRecovery(const ConfigSection& parent, RecoveryConfig* c) {
   if (c->get_up_reward_scale > 1) s.Fail("get_up_reward_scale", "must be in [0, 1]");
   c->give_up_after = Positive(s, "give_up_after", c->give_up_after);
   c->early_termination = s.Get<bool>("early_termination", c->early_termination);
+  c->early_termination_height =
+      Positive(s, "early_termination_height", c->early_termination_height);
+  if (c->early_termination_height > 1) s.Fail("early_termination_height", "must be at most 1 m");
   s.Finish();
 }
 }  // namespace

@@ -14,11 +14,6 @@ namespace ragdoll::sim {
 // A body touches the floor when some geom of it comes within this height of it, in metres.
 inline constexpr double kGroundContactHeight = 0.02;
 
-// A get-up is followed less closely than a step: a body within this height of the floor in the
-// clip may touch it (the chest and knees of a character lying face down, held a few centimetres
-// up in the clip).
-inline constexpr double kContactRichHeight = 0.10;
-
 // Every body whose geometry comes within `height` of the floor in some key frame of `clip`, in
 // skeleton order, with the fraction of frames it does.
 std::vector<std::pair<std::string, double>> GroundContactFractions(

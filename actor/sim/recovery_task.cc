@@ -79,8 +79,8 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
       if (!config_.early_termination) continue;
       std::vector<char>& may_touch = get_up_may_touch_[entry];
       may_touch = may_touch_ground_;
-      for (const auto& [body, share] :
-           GroundContactFractions(*set.entry(entry).clip, character, kContactRichHeight)) {
+      for (const auto& [body, share] : GroundContactFractions(*set.entry(entry).clip, character,
+                                                              config_.early_termination_height)) {
         may_touch[mj_name2id(character.model(), mjOBJ_BODY, body.c_str())] = 1;
       }
     }

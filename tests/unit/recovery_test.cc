@@ -46,7 +46,8 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EnvConfig c = Read(head +
                      "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n"
                      "    start_fallen: 0.4\n    start_getting_up: 0.1\n"
-                     "    get_up_reward_scale: 0.3\n    early_termination: true\n");
+                     "    get_up_reward_scale: 0.3\n    early_termination: true\n"
+                     "    early_termination_height: 0.02\n");
   EXPECT_TRUE(c.recovery.enabled());
   EXPECT_EQ(c.recovery.face_down, "motions/deepmimic/humanoid3d_getup_facedown.txt");
   EXPECT_EQ(c.recovery.face_up, "motions/deepmimic/humanoid3d_getup_faceup.txt");
@@ -54,6 +55,7 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EXPECT_DOUBLE_EQ(c.recovery.start_getting_up, 0.1);
   EXPECT_DOUBLE_EQ(c.recovery.get_up_reward_scale, 0.3);
   EXPECT_TRUE(c.recovery.early_termination);
+  EXPECT_DOUBLE_EQ(c.recovery.early_termination_height, 0.02);
   EXPECT_FALSE(Read("environment:\n  motion: motions/walk.json\n").recovery.enabled());
 
   EXPECT_NE(ErrorOf(head).find("face_up"), std::string::npos);
@@ -64,6 +66,8 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EXPECT_NE(ErrorOf(both + "    get_up_reward_scale: 2\n").find("get_up_reward_scale"),
             std::string::npos);
   EXPECT_NE(ErrorOf(both + "    start_falen: 0.2\n").find("start_falen"), std::string::npos);
+  EXPECT_NE(ErrorOf(both + "    early_termination_height: 0\n").find("early_termination_height"),
+            std::string::npos);
 }
 
 class RecoveryEnvTest : public ::testing::Test {
@@ -180,8 +184,8 @@ TEST_F(RecoveryEnvTest, StillDownTooLongEndsTheEpisode) {
 
 // Held in settled face-down falls (the state set again before every step), the episode ends at
 // the give-up without early_termination; with it, as soon as the get-up's physics puts a body on
-// the floor that the face-down clip keeps more than kContactRichHeight off it, in some of them
-// well before. Followed exactly, a get-up is never ended by it (its own contacts are allowed).
+// the floor that the face-down clip keeps more than early_termination_height off it, in some of
+// them well before. Followed exactly, a get-up is never ended by it (its own contacts are allowed).
 TEST_F(RecoveryEnvTest, EarlyTerminationEndsAGetUpOnABodyTheClipKeepsUp) {
   config_.recovery.give_up_after = 2.0;
   std::vector<std::vector<double>> fallen_qpos, fallen_qvel;
