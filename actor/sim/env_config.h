@@ -103,8 +103,8 @@ struct RecoveryConfig {
   // Still getting up this long after a fall (or a fallen start), s: the episode ends as a fall.
   double give_up_after = 8.0;
   // While getting up, a body the get-up clip keeps more than early_termination_height (m) off
-  // the floor in all its frames touching it ends the episode as a fall: DeepMimic's early
-  // termination, applied to the get-up too.
+  // the floor in all its frames touching it, or the clip's end reached without standing, ends
+  // the episode as a fall: DeepMimic's early termination, applied to the get-up too.
   bool early_termination = false;
   double early_termination_height = 0.10;
   bool enabled() const { return !face_down.empty(); }

@@ -85,7 +85,7 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
       }
     }
   }
-  touched_outside_ = false;
+  get_up_failed_ = false;
   falls_ = 0;
   recovering_steps_ = 0;
   down_steps_ = 0;
@@ -129,7 +129,7 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   ++down_steps_;
   if (config_.early_termination &&
       TouchesGroundOutside(env.character().model(), env.data(), get_up_may_touch_[get_up_entry_])) {
-    touched_outside_ = true;
+    get_up_failed_ = true;
   }
   if (env.time() < env.clip().duration() - 1e-9) return false;
   // The get-up has played: standing, the task underneath leads again; if not, get up again
@@ -137,6 +137,9 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   if (PostureOf(env.character(), env.data(), stand_height_) == Posture::kStanding) {
     get_up_entry_ = -1;
     env.SwitchReference(inner_->StartEntry(env.motion_set()));
+  } else if (config_.early_termination) {
+    // Entered again, the get-up's easy middle would pay for missing its hard end.
+    get_up_failed_ = true;
   } else {
     GetUp(env);
   }
@@ -145,7 +148,7 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
 
 bool RecoveryTask::failed() const {
   return get_up_entry_ >= 0 &&
-         (touched_outside_ || down_steps_ * control_dt_ > config_.give_up_after);
+         (get_up_failed_ || down_steps_ * control_dt_ > config_.give_up_after);
 }
 
 std::optional<double> RecoveryTask::reference_heading() const {

@@ -67,8 +67,8 @@ class RecoveryTask final : public Task {
   std::vector<char> may_touch_ground_;  // per body, from the base clips; filled at the first start
   // Per motion set entry (the get-up clips'), per body: may touch the floor while getting up.
   std::vector<std::vector<char>> get_up_may_touch_;
-  bool touched_outside_ = false;  // while getting up (early_termination)
-  double stand_height_ = 0;       // m: StandHeight of the base clip
+  bool get_up_failed_ = false;  // early_termination saw the get-up go wrong
+  double stand_height_ = 0;     // m: StandHeight of the base clip
   Beginning start_ = Beginning::kStanding;
   int start_entry_ = -1;   // the get-up clip an episode starts in (kGettingUp)
   int get_up_entry_ = -1;  // the get-up clip imitated now; -1: the inner task leads

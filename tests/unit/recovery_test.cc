@@ -263,6 +263,39 @@ TEST_F(RecoveryEnvTest, AGetUpPlayedThroughHandsBackToTheWalk) {
   EXPECT_LE(steps * config_.control_dt(), 3.8 + config_.control_dt());
 }
 
+// A get-up that reaches its end without the character standing (held in the clip's crouch at
+// 1.8 s, its own contacts only) is entered again at its closest key frame; with
+// early_termination it ends the episode as a fall, at the clip's end.
+TEST_F(RecoveryEnvTest, AGetUpThatEndsWithoutStandingIsEnteredAgainOrWithEarlyTerminationFails) {
+  config_.recovery.start_getting_up = 1;
+  auto run = [&](bool early_termination) {
+    config_.recovery.early_termination = early_termination;
+    auto env = Make(3);
+    std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+    env->Reset(obs.data());
+    std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+    env->ReferenceState(1.8, qpos.data(), qvel.data());
+    std::fill(qvel.begin(), qvel.end(), 0.0);
+    const double end = env->clip().duration();
+    int steps = 0;
+    StepResult step;
+    while (env->time() < end - 1e-9 && steps < 200) {
+      env->SetState(qpos.data(), qvel.data());
+      step = env->Step(action.data(), obs.data());
+      ASSERT_EQ(step.terminated, env->time() >= end - 1e-9) << "step " << steps;
+      ++steps;
+    }
+    EXPECT_EQ(step.terminated, early_termination);
+    EXPECT_EQ(env->episode().end == EpisodeEnd::kFell, early_termination);
+    EXPECT_TRUE(Recovery(*env).recovering());
+    if (!early_termination) {
+      EXPECT_LT(env->time(), end - 1e-9);  // entered again
+    }
+  };
+  run(false);
+  run(true);
+}
+
 // An episode that starts fallen lies on the floor, getting up, with no fall counted; the same
 // seed gives the same episode.
 TEST_F(RecoveryEnvTest, EpisodesStartFromSettledFalls) {
