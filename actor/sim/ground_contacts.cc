@@ -45,6 +45,16 @@ std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Charac
   return bodies;
 }
 
+void BodiesOnGround(const mjModel* m, const mjData& d, std::vector<char>* on) {
+  on->assign(m->nbody, 0);
+  for (int i = 0; i < d.ncon; ++i) {
+    const int b1 = m->geom_bodyid[d.contact[i].geom1];
+    const int b2 = m->geom_bodyid[d.contact[i].geom2];
+    const int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);
+    if (other > 0) (*on)[other] = 1;
+  }
+}
+
 bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<char>& may_touch) {
   for (int i = 0; i < d.ncon; ++i) {
     const int b1 = m->geom_bodyid[d.contact[i].geom1];

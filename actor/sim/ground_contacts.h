@@ -23,6 +23,10 @@ std::vector<std::pair<std::string, double>> GroundContactFractions(
 // feet, and every body the clip itself puts on the floor (GroundContactFractions).
 std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Character& character);
 
+// Sets `on[body]` to whether it is in contact with the floor (body 0, the world) in `d`'s current
+// contacts; `on` is resized to the model's bodies.
+void BodiesOnGround(const mjModel* m, const mjData& d, std::vector<char>* on);
+
 // Whether a body for which `may_touch[body]` is 0 is in contact with the floor (body 0, the world)
 // in `d`'s current contacts: a fall, by the episode's rule or recovery's.
 bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<char>& may_touch);

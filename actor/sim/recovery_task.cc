@@ -86,6 +86,7 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
     }
   }
   get_up_failed_ = false;
+  lying_on_.assign(env.character().model()->nbody, 0);
   falls_ = 0;
   recovering_steps_ = 0;
   down_steps_ = 0;
@@ -104,6 +105,16 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
   start_ = Beginning::kStanding;
 }
 
+bool GetUpContactFails(bool settling, const std::vector<char>& on_ground,
+                       const std::vector<char>& may_touch, std::vector<char>* lying) {
+  bool fails = false;
+  for (size_t b = 0; b < on_ground.size(); ++b) {
+    (*lying)[b] = settling ? (*lying)[b] || on_ground[b] : (*lying)[b] && on_ground[b];
+    fails = fails || (on_ground[b] && !may_touch[b] && !(*lying)[b]);
+  }
+  return fails;
+}
+
 bool RecoveryTask::Fallen(const TaskHost& env) {
   return TouchesGroundOutside(env.character().model(), env.data(), may_touch_ground_);
 }
@@ -114,6 +125,7 @@ void RecoveryTask::GetUp(TaskHost& env) {
   if (get_up_entry_ < 0) {
     ++falls_;
     down_steps_ = 0;
+    BodiesOnGround(env.character().model(), env.data(), &lying_on_);
   }
   get_up_entry_ = front_z < 0 ? face_down_ : face_up_;
   env.SwitchReference(get_up_entry_);
@@ -127,9 +139,12 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   }
   ++recovering_steps_;
   ++down_steps_;
-  if (config_.early_termination &&
-      TouchesGroundOutside(env.character().model(), env.data(), get_up_may_touch_[get_up_entry_])) {
-    get_up_failed_ = true;
+  if (config_.early_termination) {
+    BodiesOnGround(env.character().model(), env.data(), &on_ground_);
+    const bool settling = down_steps_ * control_dt_ <= kSettleSeconds;
+    if (GetUpContactFails(settling, on_ground_, get_up_may_touch_[get_up_entry_], &lying_on_)) {
+      get_up_failed_ = true;
+    }
   }
   if (env.time() < env.clip().duration() - 1e-9) return false;
   // The get-up has played: standing, the task underneath leads again; if not, get up again

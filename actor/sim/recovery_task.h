@@ -13,6 +13,12 @@
 
 namespace ragdoll::sim {
 
+// Early termination's contact rule for one control step of a get-up, per body: `lying` (bodies
+// excused) takes in every body on the floor while `settling` and after keeps only those still on
+// it; true when a body touches that `may_touch` does not allow and `lying` does not excuse.
+bool GetUpContactFails(bool settling, const std::vector<char>& on_ground,
+                       const std::vector<char>& may_touch, std::vector<char>* lying);
+
 class RecoveryTask final : public Task {
  public:
   // config.recovery must be enabled; `inner` is the task recovered to (imitation alone, or
@@ -68,7 +74,12 @@ class RecoveryTask final : public Task {
   // Per motion set entry (the get-up clips'), per body: may touch the floor while getting up.
   std::vector<std::vector<char>> get_up_may_touch_;
   bool get_up_failed_ = false;  // early_termination saw the get-up go wrong
-  double stand_height_ = 0;     // m: StandHeight of the base clip
+  // A fallen body first pushes itself into the get-up's pose: a body on the floor within this
+  // long of the fall may lie there until it leaves the floor (early_termination).
+  static constexpr double kSettleSeconds = 0.5;
+  // Per body: on the floor since the fall (or its first kSettleSeconds) and not lifted since.
+  std::vector<char> lying_on_, on_ground_;
+  double stand_height_ = 0;  // m: StandHeight of the base clip
   Beginning start_ = Beginning::kStanding;
   int start_entry_ = -1;   // the get-up clip an episode starts in (kGettingUp)
   int get_up_entry_ = -1;  // the get-up clip imitated now; -1: the inner task leads
