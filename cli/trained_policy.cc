@@ -33,6 +33,8 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   // They start standing too; a fall still becomes a get-up.
   p.experiment.environment.recovery.start_fallen = 0;
   p.experiment.environment.recovery.start_getting_up = 0;
+  // Early termination steers training; used, a get-up that goes wrong is tried again.
+  p.experiment.environment.recovery.early_termination = false;
   const sim::EnvSpec spec = sim::MakeEnvSpec(p.experiment.environment);
   learner::Learner l(p.experiment.trainer, spec.observation_size, spec.action_size);
   l.Load(p.checkpoint);
