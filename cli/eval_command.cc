@@ -196,6 +196,10 @@ std::function<int()> AddEvalCommand(CLI::App& app) {
   cmd->add_option("--recovery-seconds", o->recovery.seconds, "watched per recovery trial, s")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--recovery-hold", o->recovery.hold,
+                  "s the character must keep standing for a recovery trial to count it up")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--commands", o->commands,
                   "steering runs: play a command script (FILE) or 'random' scripts, and "
                   "score speed and heading tracking, falls and transitions");
