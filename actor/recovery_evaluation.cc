@@ -50,9 +50,10 @@ RecoveryResult EvaluateRecovery(const sim::EnvConfig& env, const v1::PolicySnaps
   result.config = config;
   std::mt19937_64 rng(seed);
   for (int t = 0; t < config.trials; ++t) {
+    // Reset first: the falls are the base clip's poses, not those of where the last trial ended.
+    worker.ResetFirst(std::uniform_real_distribution<double>(0, 1)(rng));
     const sim::FallenState fallen = sim::SettledFall(*character, e.clip(), rng);
     result.postures.push_back(sim::PostureName(fallen.posture));
-    worker.ResetFirst(std::uniform_real_distribution<double>(0, 1)(rng));
     worker.SetStateFirst(fallen.qpos.data(), fallen.qvel.data());
     int standing = 0, up_at = -1;
     for (int s = 0; s < steps && up_at < 0; ++s) {

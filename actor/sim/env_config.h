@@ -105,8 +105,10 @@ struct RecoveryConfig {
   // While getting up, a body the get-up clip keeps more than early_termination_height (m) off
   // the floor in all its frames touching it, or the clip's end reached without standing, ends
   // the episode as a fall: DeepMimic's early termination, applied to the get-up too.
-  bool early_termination = false;
-  double early_termination_height = 0.10;
+  // On by default, at the 2 cm of `allowed_contacts: auto`: without them get-ups were not learned
+  // (docs/training-experiments.md, A-I).
+  bool early_termination = true;
+  double early_termination_height = 0.02;
   bool enabled() const { return !face_down.empty(); }
 };
 

@@ -57,6 +57,10 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EXPECT_TRUE(c.recovery.early_termination);
   EXPECT_DOUBLE_EQ(c.recovery.early_termination_height, 0.02);
   EXPECT_FALSE(Read("environment:\n  motion: motions/walk.json\n").recovery.enabled());
+  const EnvConfig defaults =
+      Read(head + "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n");
+  EXPECT_TRUE(defaults.recovery.early_termination);
+  EXPECT_DOUBLE_EQ(defaults.recovery.early_termination_height, 0.02);
 
   EXPECT_NE(ErrorOf(head).find("face_up"), std::string::npos);
   const std::string both = head + "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n";
@@ -82,6 +86,7 @@ class RecoveryEnvTest : public ::testing::Test {
     config_.recovery.face_up = kFaceUp;
     config_.recovery.start_fallen = 0;
     config_.recovery.start_getting_up = 0;
+    config_.recovery.early_termination = false;  // the tests of it turn it on
     character_ = Character::Load(config_.character, config_.physics_dt());
   }
   std::unique_ptr<ImitationEnv> Make(uint64_t seed = 1) {
