@@ -45,22 +45,30 @@ std::vector<std::string> ClipGroundContacts(const MotionClip& clip, const Charac
   return bodies;
 }
 
+namespace {
+
+// The body a contact puts on the floor (body 0, the world), or -1 for a contact elsewhere.
+int BodyOnGround(const mjModel* m, const mjContact& contact) {
+  const int b1 = m->geom_bodyid[contact.geom1];
+  const int b2 = m->geom_bodyid[contact.geom2];
+  const int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);
+  return other > 0 ? other : -1;
+}
+
+}  // namespace
+
 void BodiesOnGround(const mjModel* m, const mjData& d, std::vector<char>* on) {
   on->assign(m->nbody, 0);
   for (int i = 0; i < d.ncon; ++i) {
-    const int b1 = m->geom_bodyid[d.contact[i].geom1];
-    const int b2 = m->geom_bodyid[d.contact[i].geom2];
-    const int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);
-    if (other > 0) (*on)[other] = 1;
+    const int body = BodyOnGround(m, d.contact[i]);
+    if (body > 0) (*on)[body] = 1;
   }
 }
 
 bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<char>& may_touch) {
   for (int i = 0; i < d.ncon; ++i) {
-    const int b1 = m->geom_bodyid[d.contact[i].geom1];
-    const int b2 = m->geom_bodyid[d.contact[i].geom2];
-    const int other = b1 == 0 ? b2 : (b2 == 0 ? b1 : -1);
-    if (other > 0 && !may_touch[other]) return true;
+    const int body = BodyOnGround(m, d.contact[i]);
+    if (body > 0 && !may_touch[body]) return true;
   }
   return false;
 }
