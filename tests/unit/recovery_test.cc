@@ -206,7 +206,7 @@ TEST(GetUpContactRuleTest, ExcusesWhatTheFallLiesOnUntilItLeavesTheFloor) {
 // time, the episode goes on with early_termination at G's 2 cm, although each fall rests on a
 // body the get-up keeps higher: what the fall lies on is excused. Followed exactly, a get-up is
 // never ended by it (its own contacts are allowed).
-TEST_F(RecoveryEnvTest, EarlyTerminationEndsAGetUpOnABodyTheClipKeepsUp) {
+TEST_F(RecoveryEnvTest, EarlyTerminationExcusesWhatAFallLiesOn) {
   config_.recovery.early_termination = true;
   config_.recovery.early_termination_height = 0.02;
   auto env = Make();
@@ -221,16 +221,19 @@ TEST_F(RecoveryEnvTest, EarlyTerminationEndsAGetUpOnABodyTheClipKeepsUp) {
   }
   std::mt19937_64 rng(7);
   std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
-  for (int falls = 0; falls < 6;) {
-    const FallenState fallen = SettledFall(*character_, env->clip(), rng);
-    if (fallen.posture != Posture::kFaceDown) continue;
-    ++falls;
+  std::vector<FallenState> falls;
+  while (falls.size() < 6) {
+    FallenState fallen = SettledFall(*character_, env->clip(), rng);
+    if (fallen.posture == Posture::kFaceDown) falls.push_back(std::move(fallen));
+  }
+  for (size_t t = 0; t < falls.size(); ++t) {
+    const FallenState& fallen = falls[t];
     env->Reset(obs.data());
     env->SetState(fallen.qpos.data(), fallen.qvel.data());
     EXPECT_TRUE(TouchesGroundOutside(character_->model(), env->data(), may_touch));
     for (int n = 0; n < 15; ++n) {  // the step that sees the fall, then 0.47 s
       env->SetState(fallen.qpos.data(), fallen.qvel.data());
-      ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated) << "fall " << falls;
+      ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated) << "fall " << t;
     }
     EXPECT_TRUE(Recovery(*env).recovering());
   }
