@@ -66,6 +66,18 @@ void SteeringTask::Start(TaskHost& env, std::mt19937_64& rng) {
   command_ = env.motion_set().entry(command_entry_).command;
   error_sums_[0] = error_sums_[1] = 0;
   episode_time_ = 0;
+  FaceAndTravelAsNow(env);
+  next_command_time_ = std::uniform_real_distribution<double>(config_.command_interval_min,
+                                                              config_.command_interval_max)(rng);
+}
+
+void SteeringTask::Resume(TaskHost& env) {
+  // The heading held before the fall may be anywhere after a get-up; a player steers on from
+  // where the character stands, and the history stopped while it was down.
+  FaceAndTravelAsNow(env);
+}
+
+void SteeringTask::FaceAndTravelAsNow(const TaskHost& env) {
   desired_heading_ = env.heading();
   // The travel history as if the character had moved at its current root velocity for the
   // whole window.
@@ -77,8 +89,6 @@ void SteeringTask::Start(TaskHost& env, std::mt19937_64& rng) {
     com_history_[i] = {com[0] - back * qvel[0], com[1] - back * qvel[1], com[2]};
   }
   com_head_ = n - 1;  // the newest
-  next_command_time_ = std::uniform_real_distribution<double>(config_.command_interval_min,
-                                                              config_.command_interval_max)(rng);
 }
 
 Vec3 SteeringTask::TravelVelocity() const {

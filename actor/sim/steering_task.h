@@ -40,6 +40,8 @@ class SteeringTask final : public Task {
   // Turns the desired heading; ends a transition that has played, or changes the command when
   // its time has come.
   bool Advance(TaskHost& env, std::mt19937_64& rng) override;
+  // After a get-up: the desired heading is where the character faces, the travel history new.
+  void Resume(TaskHost& env) override;
   // The reference faces where the character is told to face.
   std::optional<double> reference_heading() const override { return desired_heading_; }
   double Reward(const TaskHost& env, const PoseFeatures& character) override;
@@ -67,6 +69,8 @@ class SteeringTask final : public Task {
   // has one); false when it already is.
   bool ChangeCommand(TaskHost& env, int entry);
   int RandomCommand(const MotionSet& set, std::mt19937_64& rng) const;
+  // The desired heading and the travel history from the character's state now.
+  void FaceAndTravelAsNow(const TaskHost& env);
 
   SteeringConfig config_;
   double control_dt_;

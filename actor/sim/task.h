@@ -84,6 +84,9 @@ class Task {
   // After the physics of a step, with the clip time advanced. True when it decided the reference
   // itself this step (the environment then leaves it where the task put it).
   virtual bool Advance(TaskHost& /*env*/, std::mt19937_64& /*rng*/) { return false; }
+  // A get-up has handed back (RecoveryTask): the task takes up from where the character stands;
+  // its reference is switched to StartEntry right after.
+  virtual void Resume(TaskHost& /*env*/) {}
   // Whether a body outside allowed_contacts touching the ground, or the root straying from the
   // reference, ends the episode (DeepMimic's early termination); a task that gets up does not.
   virtual bool falls_end_episode() const { return true; }

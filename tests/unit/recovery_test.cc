@@ -387,5 +387,44 @@ TEST_F(RecoveryEnvTest, SteeringCommandsWaitForTheGetUp) {
   EXPECT_EQ(Steering(*env).command_entry(), other);
 }
 
+// On top of steering, a get-up hands back facing where the character stands: the desired heading
+// and the reference's yaw are the character's own, not the heading held before the fall.
+TEST_F(RecoveryEnvTest, SteeringTakesUpFromWhereTheGetUpEnds) {
+  for (const std::string& m : {kAssets + "/motions/stand.json", kAssets + "/motions/walk.json"}) {
+    MotionSetItem item;
+    item.motion = m;
+    item.name = std::filesystem::path(m).stem().string();
+    config_.steering.motions.push_back(item);
+  }
+  config_.motion = config_.steering.motions.front().motion;
+  config_.recovery.start_getting_up = 1;
+  auto env = Make(3);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  ASSERT_TRUE(Recovery(*env).recovering());
+  const double heading_before = Steering(*env).desired_heading();
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  for (int steps = 0; Recovery(*env).recovering() && steps < 200; ++steps) {
+    env->ReferenceState(env->time(), qpos.data(), qvel.data());
+    // The get-up played turned a quarter to the left, as a fall leaves a character anywhere.
+    const Quat yaw = AxisAngle({0, 0, 1}, M_PI / 2);
+    const Vec3 p = Rotate(yaw, {qpos[0], qpos[1], qpos[2]});
+    const Quat r = Multiply(yaw, {qpos[3], qpos[4], qpos[5], qpos[6]});
+    std::copy(p.begin(), p.end(), qpos.begin());
+    std::copy(r.begin(), r.end(), qpos.begin() + 3);
+    env->SetState(qpos.data(), qvel.data());
+    ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated);
+  }
+  ASSERT_FALSE(Recovery(*env).recovering());
+  EXPECT_GT(std::abs(WrapAngle(env->heading() - heading_before)), 1.0);
+  EXPECT_NEAR(Steering(*env).desired_heading(), env->heading(), 1e-9);
+  EXPECT_NEAR(Steering(*env).HeadingError(*env), 0.0, 1e-9);
+  env->ReferenceState(env->time(), qpos.data(), qvel.data());
+  const Quat reference = {qpos[3], qpos[4], qpos[5], qpos[6]};
+  const Quat character = {env->data().qpos[3], env->data().qpos[4], env->data().qpos[5],
+                          env->data().qpos[6]};
+  EXPECT_NEAR(WrapAngle(YawOf(reference) - YawOf(character)), 0.0, 0.15);
+}
+
 }  // namespace
 }  // namespace ragdoll::sim
