@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -106,6 +107,8 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
   const double longest = config.random ? config.duration : config.script.duration;
   env.max_episode_steps = static_cast<int>(std::ceil(longest / dt)) + 1;
   env.random_start = true;
+  // A push that only carries the character away from its reference is not a fall.
+  if (config.push_interval > 0) env.max_root_distance = std::numeric_limits<double>::infinity();
   RolloutWorker worker(env, 1, 1, seed, "commands");
   worker.SetPolicy(snapshot);
   sim::ImitationEnv& e = worker.environment(0);
@@ -113,6 +116,12 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
   const sim::MotionSet& motions = e.motion_set();
   const double imitation_max = env.reward.MaxReward();
   std::mt19937_64 phases(seed);
+  std::mt19937_64 pushes(seed ^ 0x9e3779b97f4a7c15ULL);
+  const int pelvis = e.character().root_body();
+  const int push_steps = std::max(1, static_cast<int>(std::lround(config.push_duration / dt)));
+  const int push_every = config.push_interval > 0
+                             ? std::max(1, static_cast<int>(std::lround(config.push_interval / dt)))
+                             : 0;
 
   CommandEvalResult result;
   std::map<std::string, Sums> per_command;
@@ -145,7 +154,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
       }
     };
     const int steps = static_cast<int>(std::lround(script.duration / dt));
-    bool fell = false;
+    bool fell = false, knocked = false;
     for (int step = 0; step < steps && !fell; ++step) {
       const double t = step * dt;
       if (next < script.changes.size() && t >= script.changes[next].at - 1e-9) {
@@ -157,14 +166,25 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
         transition = Sums();
         ++next;
       }
+      if (push_every > 0 && step > 0 && step % push_every == 0) {
+        const double impulse = std::uniform_real_distribution<double>(0, config.push_max)(pushes);
+        const double angle = std::uniform_real_distribution<double>(-M_PI, M_PI)(pushes);
+        const double force = impulse / (push_steps * dt);
+        e.SetExternalForce(pelvis, {force * std::cos(angle), force * std::sin(angle), 0});
+        ++result.pushes;
+      }
+      if (push_every > 0 && step % push_every == push_steps) e.SetExternalForce(pelvis, {0, 0, 0});
       sim::StepResult r = worker.StepFirst(/*deterministic=*/true);
       result.seconds += dt;
+      knocked = knocked || r.terminated || e.episode().fell();
       if (r.terminated) {
         fell = true;
         ++result.falls;
         close_transition(true);
         break;
       }
+      // Getting up (EnvConfig::recovery) is scored by --recovery, not as steering.
+      if (motions.entry(e.reference_entry()).get_up) continue;
       const double since = t + dt - changed_at;
       if (since < config.settle) continue;
       const double speed = steering.SpeedError(), heading = std::abs(steering.HeadingError(e));
@@ -185,6 +205,8 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
       }
     }
     if (!fell) close_transition(false);
+    if (knocked) ++result.knocked_down;
+    e.SetExternalForce(pelvis, {0, 0, 0});
   }
   overall.AddTo(&result.overall, dt);
   moving.AddTo(&result.moving, dt);
@@ -204,6 +226,12 @@ std::string CommandEvalResult::ToTable() const {
                 "commands: %d runs, %.0f s simulated, fall rate %.3f (%d runs fell)\n", runs,
                 seconds, fall_rate(), falls);
   out << line;
+  if (pushes > 0 || knocked_down > falls) {
+    std::snprintf(line, sizeof line,
+                  "  %d pushes; %d runs knocked down, %d of them did not get up\n", pushes,
+                  knocked_down, falls);
+    out << line;
+  }
   out << "  command           settled  speed err  heading°   imitation\n";
   for (const auto& [name, t] : per_command) row(name, t);
   row("(moving)", moving);
@@ -221,6 +249,8 @@ std::string CommandEvalResult::ToJson() const {
   nlohmann::json j = {{"runs", runs},
                       {"falls", falls},
                       {"fall_rate", fall_rate()},
+                      {"knocked_down", knocked_down},
+                      {"pushes", pushes},
                       {"seconds", seconds},
                       {"overall", TrackingJson(overall)},
                       {"moving", TrackingJson(moving)}};

@@ -50,6 +50,12 @@ struct CommandEvalConfig {
   double transition_window = 3.0;
   double transition_speed = 0.25;    // m/s
   double transition_heading = 0.44;  // rad (25 degrees)
+  // Pushes while the script plays: every `push_interval` seconds (0: none) the pelvis is pushed
+  // for `push_duration` s toward a random horizontal direction with an impulse drawn uniformly
+  // from [0, push_max] N s (the seed draws them).
+  double push_interval = 0;
+  double push_max = 60;
+  double push_duration = 0.2;
 };
 
 struct CommandTracking {
@@ -66,7 +72,11 @@ struct TransitionOutcome {
 
 struct CommandEvalResult {
   int runs = 0;
-  int falls = 0;            // runs that ended in a fall (a fall ends the run)
+  // Runs that ended in a fall: a fall ends the run, or, for a policy that gets up
+  // (EnvConfig::recovery), still being down give_up_after seconds after it.
+  int falls = 0;
+  int knocked_down = 0;     // runs with at least one fall, got up or not
+  int pushes = 0;           // pushes given (push_interval)
   double seconds = 0;       // simulated in all runs
   CommandTracking overall;  // every settled step
   CommandTracking moving;   // settled steps of commands that move or turn

@@ -210,6 +210,15 @@ std::function<int()> AddEvalCommand(CLI::App& app) {
                   "length of each random script, s (--commands random)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--command-push-interval", o->command_eval.push_interval,
+                  "push the pelvis every S seconds of a scripted run (0: never), toward a random "
+                  "direction for 0.2 s (--commands)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--command-push-max", o->command_eval.push_max,
+                  "largest impulse of those pushes, N s; each is drawn from [0, this]")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   return [cmd, o]() -> int {
     if (!*cmd) return -1;
     return RunEval(*o);

@@ -211,6 +211,31 @@ TEST_F(CommandEvalTest, ScoresTrackingPerCommandAndTransitions) {
   EXPECT_NE(r.ToTable().find("fall rate 0.000"), std::string::npos) << r.ToTable();
 }
 
+// Pushes while a script plays: every 0.5 s of a 1.8 s script (at 0.5, 1.0 and 1.5 s); impulses of
+// at most 0 N s change nothing, of up to 400 N s on the pelvis fell the character.
+TEST_F(CommandEvalTest, PushesDuringAScriptAreCountedAndKnockTheCharacterDown) {
+  CommandEvalConfig c;
+  c.random = false;
+  c.runs = 2;
+  c.script = ReadCommandScript(Script("duration: 1.8\ncommands:\n  - {at: 0, command: stand}\n"),
+                               *motions_);
+  c.push_interval = 0.5;
+  c.push_max = 0;
+  const CommandEvalResult calm = EvaluateCommands(env_, snapshot_, c, 5);
+  EXPECT_EQ(calm.pushes, 6);
+  EXPECT_EQ(calm.falls, 0) << calm.ToTable();
+  EXPECT_EQ(calm.knocked_down, 0);
+  c.push_max = 400;
+  const CommandEvalResult hard = EvaluateCommands(env_, snapshot_, c, 5);
+  EXPECT_EQ(hard.falls, 2) << hard.ToTable();
+  EXPECT_EQ(hard.knocked_down, 2);
+  EXPECT_GE(hard.pushes, 2);
+  EXPECT_LT(hard.seconds, calm.seconds);
+  EXPECT_NE(hard.ToTable().find("2 runs knocked down, 2 of them did not get up"), std::string::npos)
+      << hard.ToTable();
+  EXPECT_NE(hard.ToJson().find("\"knocked_down\": 2"), std::string::npos);
+}
+
 TEST_F(CommandEvalTest, RandomScriptsAreSeededAndChangeTheCommand) {
   CommandScript a = RandomCommandScript(*motions_, 60, 2, 5, 9);
   CommandScript b = RandomCommandScript(*motions_, 60, 2, 5, 9);
