@@ -15,6 +15,10 @@
 namespace ragdoll::actor {
 namespace {
 
+// A push's direction from where the character faces, radians counter-clockwise.
+const std::map<std::string, double> kSideAngle = {
+    {"forward", 0}, {"left", M_PI / 2}, {"backward", M_PI}, {"right", -M_PI / 2}};
+
 // Sums of one command's (or transition's) scored steps.
 struct Sums {
   double steps = 0, speed = 0, heading = 0, imitation = 0;
@@ -45,7 +49,8 @@ nlohmann::json TrackingJson(const CommandTracking& t) {
 
 }  // namespace
 
-CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions) {
+CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions,
+                                const sim::Character& character) {
   ConfigSection root = ConfigSection::FromFile(path);
   CommandScript script;
   for (const ConfigSection& c : root.SectionList("commands")) {
@@ -68,12 +73,76 @@ CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& m
     script.changes.push_back(change);
   }
   if (script.changes.empty()) root.Fail("commands", "required: at least one {at, command}");
+  for (const ConfigSection& c : root.SectionList("pushes")) {
+    CommandScript::Push push;
+    push.at = c.Get<double>("at", -1.0);
+    push.impulse = c.Get<double>("impulse", -1.0);
+    push.direction = c.Get<std::string>("direction", push.direction);
+    push.duration = c.Get<double>("duration", push.duration);
+    push.body = c.Get<std::string>("body", "");
+    if (!std::isfinite(push.at) || push.at < 0) c.Fail("at", "must be a time >= 0, s");
+    if (!std::isfinite(push.impulse) || push.impulse < 0 || push.impulse > 10000) {
+      c.Fail("impulse", "must be 0-10000 N s");
+    }
+    if (!kSideAngle.count(push.direction)) {
+      c.Fail("direction", "'" + push.direction + "': one of forward, backward, left, right");
+    }
+    if (!std::isfinite(push.duration) || push.duration <= 0 || push.duration > 10) {
+      c.Fail("duration", "must be 0-10 s");
+    }
+    if (!push.body.empty() && mj_name2id(character.model(), mjOBJ_BODY, push.body.c_str()) < 1) {
+      c.Fail("body", "'" + push.body + "' is not a body of the character");
+    }
+    if (!script.pushes.empty() &&
+        push.at < script.pushes.back().at + script.pushes.back().duration) {
+      c.Fail("at", "pushes must come in time order, each after the previous one has ended");
+    }
+    c.Finish();
+    script.pushes.push_back(push);
+  }
   script.duration = root.Get<double>("duration", script.changes.back().at + 5.0);
   if (!(script.duration > script.changes.back().at)) {
     root.Fail("duration", "must be after the last command's time");
   }
   root.Finish();
   return script;
+}
+
+ScriptedPushes::ScriptedPushes(std::vector<CommandScript::Push> pushes,
+                               const sim::Character& character)
+    : pushes_(std::move(pushes)) {
+  for (const CommandScript::Push& p : pushes_) {
+    const int body = p.body.empty() ? character.root_body()
+                                    : mj_name2id(character.model(), mjOBJ_BODY, p.body.c_str());
+    if (body < 1) throw ConfigError("push body '" + p.body + "' is not in the character");
+    bodies_.push_back(body);
+  }
+}
+
+void ScriptedPushes::Before(sim::ImitationEnv& env, double t) {
+  constexpr double kEps = 1e-9;
+  if (active_ >= 0 && t >= pushes_[active_].at + pushes_[active_].duration - kEps) {
+    env.SetExternalForce(bodies_[active_], {0, 0, 0});
+    active_ = -1;
+  }
+  if (active_ < 0 && next_ < pushes_.size() && t >= pushes_[next_].at - kEps) {
+    const CommandScript::Push& p = pushes_[next_];
+    const double angle = kSideAngle.at(p.direction) + env.heading();
+    const double force = p.impulse / p.duration;
+    env.SetExternalForce(bodies_[next_], {force * std::cos(angle), force * std::sin(angle), 0});
+    active_ = static_cast<int>(next_++);
+  }
+}
+
+std::string ScriptedPushes::Describe(double t, double linger) const {
+  for (size_t i = 0; i < next_; ++i) {
+    const CommandScript::Push& p = pushes_[i];
+    if (t < p.at || t > p.at + p.duration + linger) continue;
+    char text[128];
+    std::snprintf(text, sizeof text, "push %.0f N s %s", p.impulse, p.direction.c_str());
+    return text;
+  }
+  return "";
 }
 
 CommandScript RandomCommandScript(const sim::MotionSet& motions, double duration,
@@ -134,6 +203,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
             : config.script;
     worker.SetCommandFirst(motions.Find(script.changes.front().command));
     worker.ResetFirst(std::uniform_real_distribution<double>(0, 1)(phases));
+    ScriptedPushes scripted(script.pushes, e.character());
     ++result.runs;
     size_t next = 1;
     double changed_at = 0;
@@ -166,6 +236,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
         transition = Sums();
         ++next;
       }
+      scripted.Before(e, t);
       if (push_every > 0 && step > 0 && step % push_every == 0) {
         const double impulse = std::uniform_real_distribution<double>(0, config.push_max)(pushes);
         const double angle = std::uniform_real_distribution<double>(-M_PI, M_PI)(pushes);

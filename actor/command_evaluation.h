@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "actor/sim/character.h"
 #include "actor/sim/env_config.h"
+#include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_set.h"
 #include "common/wire.h"
 
@@ -19,7 +21,17 @@ struct CommandScript {
     double at = 0;        // seconds from the start
     std::string command;  // a motion-set entry that is not a transition
   };
+  // A push at a moment of the script: `impulse` N s spread over `duration` s on `body` (empty:
+  // the pelvis), horizontally toward a side of where the character faces when it starts.
+  struct Push {
+    double at = 0;
+    double impulse = 0;
+    std::string direction = "forward";  // forward, backward, left, right
+    double duration = 0.2;
+    std::string body;
+  };
   std::vector<Change> changes;  // in time order, the first at 0
+  std::vector<Push> pushes;     // in time order, none overlapping
   double duration = 0;          // seconds
 };
 
@@ -28,9 +40,31 @@ struct CommandScript {
 //   commands:
 //     - {at: 0, command: stand}
 //     - {at: 2, command: walk}
-// Throws ConfigError naming the file and line for an unknown command, times out of order, a
-// first change after 0, or a duration not after the last change.
-CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions);
+//   pushes:                  # optional
+//     - {at: 5, impulse: 60, direction: left}
+//     - {at: 9, impulse: 200, direction: backward, body: chest, duration: 0.1}
+// Throws ConfigError naming the file and line for an unknown command, direction or body, times
+// out of order, a first change after 0, overlapping pushes, or a duration not after the last
+// change.
+CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions,
+                                const sim::Character& character);
+
+// Gives a script's pushes as its clock passes them, as external forces on the environment.
+class ScriptedPushes {
+ public:
+  // Throws ConfigError for a body the character does not have.
+  ScriptedPushes(std::vector<CommandScript::Push> pushes, const sim::Character& character);
+  // Before the control step that starts at script time `t`: starts or ends a push.
+  void Before(sim::ImitationEnv& env, double t);
+  // The push under way or ended less than `linger` s before `t` ("push 60 N s left"), or "".
+  std::string Describe(double t, double linger) const;
+
+ private:
+  std::vector<CommandScript::Push> pushes_;
+  std::vector<int> bodies_;
+  size_t next_ = 0;  // the first push not yet started
+  int active_ = -1;  // the push under way
+};
 
 // Commands drawn uniformly from the set (never the current one again), each held for a uniform
 // random interval in [interval_min, interval_max] seconds.

@@ -137,7 +137,7 @@ int Bake(const BakeOptions& o) {
   const sim::MotionClip reference = sim::LoadMotion(env.motion);
   actor::CommandScript script;
   if (!o.commands.empty()) {
-    script = actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character));
+    script = actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
   }
   const double rate = env.control_frequency;
   const double seconds = o.seconds > 0         ? o.seconds
@@ -165,11 +165,13 @@ int Bake(const BakeOptions& o) {
   std::vector<sim::Pose> frames = {character->QposToPose(e.data().qpos)};
   std::string ending = "";
   PushSchedule pushes(o.pushes, o.push_every, rate, o.seed, character->root_body());
+  actor::ScriptedPushes scripted(script.pushes, *character);
   for (int s = 1; s <= steps; ++s) {
     if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / rate) {
       worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
     }
     pushes.Before(s, e);
+    scripted.Before(e, (s - 1) / rate);
     const sim::StepResult r = worker.StepFirst(true);
     pushes.After(e);
     frames.push_back(character->QposToPose(e.data().qpos));

@@ -45,7 +45,7 @@ actor::CommandEvalResult EvaluateScripts(const TrainedPolicy& policy, EvalOption
   o.command_eval.random = o.commands == "random";
   if (!o.command_eval.random) {
     o.command_eval.script =
-        actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character));
+        actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
   }
   return actor::EvaluateCommands(env, policy.snapshot, o.command_eval, o.seed);
 }

@@ -49,6 +49,9 @@ void EnsureDisplay(int argc, char** argv) {
   std::fprintf(stderr, "ragdoll render: no DISPLAY and cannot run xvfb-run (install xvfb)\n");
 }
 
+// How long a push stays in the caption after it has ended, s.
+constexpr double kPushCaptionSeconds = 1.0;
+
 std::string Caption(const std::string& clip, double t, const std::string& policy, double normalized,
                     bool fell) {
   char text[256];
@@ -99,7 +102,7 @@ int Render(const RenderOptions& o) {
   // random ones; a script file sets the length.
   actor::CommandScript script;
   if (!o.commands.empty() && o.commands != "random") {
-    script = actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character));
+    script = actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
   }
   const double seconds = o.seconds > 0         ? o.seconds
                          : script.duration > 0 ? script.duration
@@ -151,6 +154,7 @@ int Render(const RenderOptions& o) {
       next_change = 1;
     }
     worker.ResetFirst(o.phase);
+    actor::ScriptedPushes pushes(script.pushes, *character);
     sim::DataPtr reference = character->MakeData();
     std::vector<double> qvel(character->model()->nv);
     const std::string label = "policy v" + std::to_string(policy->version);
@@ -163,6 +167,8 @@ int Render(const RenderOptions& o) {
           ep.length > 0 ? ep.episode_return / (e.spec().max_reward_per_step * ep.length) : 1.0;
       std::string caption = Caption(e.clip().name(), e.time(), label, normalized, fell);
       if (steering) caption += SteeringCaption(e);
+      const std::string push = pushes.Describe(s / fps, kPushCaptionSeconds);
+      if (!push.empty()) caption += "\n" + push;
       emit(s, e.data(), o.ghost == "none" ? nullptr : reference.get(), caption);
     };
     draw(0);
@@ -170,6 +176,7 @@ int Render(const RenderOptions& o) {
       if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / fps) {
         worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
       }
+      pushes.Before(e, (s - 1) / fps);
       sim::StepResult r = worker.StepFirst(true);
       if (r.terminated || r.truncated) {
         fell = r.terminated;

@@ -189,7 +189,7 @@ TEST_F(CommandEvalTest, ScoresTrackingPerCommandAndTransitions) {
   c.script = ReadCommandScript(Script("duration: 1.8\ncommands:\n  - {at: 0, command: stand}\n"
                                       "  - {at: 0.6, command: still}\n"
                                       "  - {at: 1.2, command: stand}\n"),
-                               *motions_);
+                               *motions_, *character_);
   ASSERT_EQ(c.script.changes.size(), 3u);
   CommandEvalResult r = EvaluateCommands(env_, snapshot_, c, 5);
   ASSERT_EQ(r.falls, 0) << r.ToTable();
@@ -218,7 +218,7 @@ TEST_F(CommandEvalTest, PushesDuringAScriptAreCountedAndKnockTheCharacterDown) {
   c.random = false;
   c.runs = 2;
   c.script = ReadCommandScript(Script("duration: 1.8\ncommands:\n  - {at: 0, command: stand}\n"),
-                               *motions_);
+                               *motions_, *character_);
   c.push_interval = 0.5;
   c.push_max = 0;
   const CommandEvalResult calm = EvaluateCommands(env_, snapshot_, c, 5);
@@ -234,6 +234,45 @@ TEST_F(CommandEvalTest, PushesDuringAScriptAreCountedAndKnockTheCharacterDown) {
   EXPECT_NE(hard.ToTable().find("2 runs knocked down, 2 of them did not get up"), std::string::npos)
       << hard.ToTable();
   EXPECT_NE(hard.ToJson().find("\"knocked_down\": 2"), std::string::npos);
+}
+
+// A script's own pushes: one of 400 N s at 0.5 s fells the character, one of 0 N s changes
+// nothing; the caption names the push while it lasts and a while after.
+TEST_F(CommandEvalTest, AScriptsPushesAreGivenAtTheirTimes) {
+  CommandEvalConfig c;
+  c.random = false;
+  c.runs = 1;
+  const std::string head = "duration: 1.8\ncommands:\n  - {at: 0, command: stand}\npushes:\n";
+  c.script = ReadCommandScript(Script(head + "  - {at: 0.5, impulse: 0, direction: left}\n"),
+                               *motions_, *character_);
+  ASSERT_EQ(c.script.pushes.size(), 1u);
+  EXPECT_EQ(c.script.pushes[0].duration, 0.2);
+  EXPECT_EQ(EvaluateCommands(env_, snapshot_, c, 5).falls, 0);
+  c.script = ReadCommandScript(
+      Script(head + "  - {at: 0.5, impulse: 400, direction: left, body: chest}\n"), *motions_,
+      *character_);
+  const CommandEvalResult r = EvaluateCommands(env_, snapshot_, c, 5);
+  EXPECT_EQ(r.falls, 1) << r.ToTable();
+  EXPECT_LT(r.seconds, 1.5);
+
+  sim::ImitationEnv env(character_, motions_, env_, 1);
+  std::vector<float> obs(env.spec().observation_size);
+  env.Reset(obs.data());
+  ScriptedPushes pushes(c.script.pushes, *character_);
+  pushes.Before(env, 0.4);
+  EXPECT_EQ(pushes.Describe(0.4, 1.0), "");
+  pushes.Before(env, 0.5);
+  const int chest = mj_name2id(character_->model(), mjOBJ_BODY, "chest");
+  const double* f = env.data().xfrc_applied + 6 * chest;
+  EXPECT_NEAR(std::hypot(f[0], f[1]), 400 / 0.2, 1e-9);
+  // Left of where the character faces: 90 degrees counter-clockwise of its heading.
+  EXPECT_NEAR(std::atan2(f[1], f[0]), sim::WrapAngle(env.heading() + M_PI / 2), 1e-9);
+  EXPECT_EQ(pushes.Describe(0.6, 1.0), "push 400 N s left");
+  pushes.Before(env, 0.7);
+  EXPECT_EQ(f[0], 0.0);
+  EXPECT_EQ(f[1], 0.0);
+  EXPECT_EQ(pushes.Describe(1.6, 1.0), "push 400 N s left");
+  EXPECT_EQ(pushes.Describe(1.8, 1.0), "");
 }
 
 TEST_F(CommandEvalTest, RandomScriptsAreSeededAndChangeTheCommand) {
@@ -255,7 +294,7 @@ TEST_F(CommandEvalTest, RandomScriptsAreSeededAndChangeTheCommand) {
 TEST_F(CommandEvalTest, BadScriptsNameFileLineAndProblem) {
   auto error = [&](const std::string& text) {
     try {
-      ReadCommandScript(Script(text), *motions_);
+      ReadCommandScript(Script(text), *motions_, *character_);
     } catch (const ConfigError& e) {
       return std::string(e.what());
     }
@@ -275,6 +314,20 @@ TEST_F(CommandEvalTest, BadScriptsNameFileLineAndProblem) {
       error("duration: 1\ncommands:\n  - {at: 0, command: stand}\n  - {at: 2, command: still}\n")
           .find("duration: must be after"),
       std::string::npos);
+  const std::string stand = "commands:\n  - {at: 0, command: stand}\npushes:\n";
+  EXPECT_NE(error(stand + "  - {at: 1, impulse: 50, direction: up}\n")
+                .find("pushes[0].direction: 'up': one of forward, backward, left, right"),
+            std::string::npos);
+  EXPECT_NE(error(stand + "  - {at: 1, impulse: -5}\n").find("pushes[0].impulse"),
+            std::string::npos);
+  EXPECT_NE(error(stand + "  - {at: 1, impulse: 50, body: tail}\n")
+                .find("pushes[0].body: 'tail' is not a body"),
+            std::string::npos);
+  EXPECT_NE(error(stand + "  - {at: 1, impulse: 50}\n  - {at: 1.1, impulse: 50}\n")
+                .find("pushes[1].at: pushes must come in time order"),
+            std::string::npos);
+  EXPECT_NE(error(stand + "  - {at: 1, impulse: 50, strength: 3}\n").find("strength"),
+            std::string::npos);
   sim::EnvConfig plain = env_;
   plain.steering.motions.clear();
   EXPECT_THROW(EvaluateCommands(plain, snapshot_, CommandEvalConfig(), 1), std::invalid_argument);
