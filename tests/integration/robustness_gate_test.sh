@@ -3,14 +3,19 @@
 # push eval (DeepMimic's protocol, 10 trials a direction) and must keep the figures recorded with
 # it in its robustness.json: unpushed normalised return within 0.03, and in every direction at
 # least 3/4 of the recorded impulse (the margin covers other CPUs' float rounding, which changes
-# single trials; a broken push, reward or controller costs far more).
+# single trials; a broken push, reward or controller costs far more). A policy that gets up has
+# its recovery recorded too ("recovery": {"trials", "within_10"}): as many settled falls, and the
+# share standing within 10 s at most 0.15 below the recorded one.
 #   robustness_gate_test.sh RAGDOLL CHECKPOINT RECORDED_JSON
 set -euo pipefail
 ragdoll=$1 checkpoint=$2 recorded=$3
 out=$(mktemp /tmp/ragdoll-gate.XXXXXX.json)
 trap 'rm -f "$out"' EXIT
+recovery=$(python3 -c 'import json, sys; r = json.load(open(sys.argv[1])).get("recovery")
+print("--recovery %d" % r["trials"] if r else "")' "$recorded")
+# shellcheck disable=SC2086  # $recovery is empty or two words
 "$ragdoll" eval "$checkpoint" --pushes --push-trials 10 --push-resolution 4 --episodes 4 \
-  --push-impulses 0 --json "$out" > /dev/null
+  --push-impulses 0 $recovery --json "$out" > /dev/null
 python3 - "$out" "$recorded" <<'PY'
 import json, sys
 got, want = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
@@ -25,6 +30,12 @@ for d in got["perturbation"]["protocol"]["directions"]:
           f"recorded {want['protocol'][d['direction']]:.1f}, floor {floor:.1f}")
     if d["survived_90"] < floor:
         failures.append(f"{d['direction']} {d['survived_90']} N s < {floor} N s")
+if "recovery" in want:
+    r, floor = got["recovery"], want["recovery"]["within_10"] - 0.15
+    print(f"recovery  {r['within_10']:.2f} standing within 10 s of {r['trials']} falls, "
+          f"recorded {want['recovery']['within_10']:.2f}, floor {floor:.2f}")
+    if r["within_10"] < floor:
+        failures.append(f"recovery within 10 s {r['within_10']:.2f} < {floor:.2f}")
 for f in failures:
     print("FAIL:", f)
 sys.exit(1 if failures else 0)
