@@ -520,6 +520,14 @@ EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string
         }
       }
     }
+    if (j.contains("recovery")) {
+      const nlohmann::json& r = j.at("recovery");
+      s.recovery_trials = r.at("trials").get<int>();
+      s.recovery_hold = r.value("hold", 0.5);
+      s.within_5 = r.at("within_5").get<double>();
+      s.within_10 = r.at("within_10").get<double>();
+      s.recovery_median = r.at("median_seconds").get<double>();
+    }
   } catch (const nlohmann::json::exception& e) {
     throw ConfigError(origin + ": not an evaluation written by `ragdoll eval` (" + e.what() + ")");
   }
@@ -792,6 +800,21 @@ std::string EvaluationSection(const std::vector<RunReport>& runs) {
           }
         }
         return std::string("—");
+      });
+    }
+    if (std::any_of(evaluated.begin(), evaluated.end(),
+                    [&](size_t r) { return runs[r].evaluation->recovery_trials > 0; })) {
+      row("standing within 5 s / 10 s of settled falls", [](E e) {
+        return e.recovery_trials == 0 ? std::string("—")
+                                      : Format("%.0f %%", 100 * e.within_5) + " / " +
+                                            Format("%.0f %%", 100 * e.within_10) + " of " +
+                                            std::to_string(e.recovery_trials) + ", held " +
+                                            Format("%g", e.recovery_hold) + " s";
+      });
+      row("median time to stand (s)", [](E e) {
+        return e.recovery_trials == 0  ? std::string("—")
+               : e.recovery_median < 0 ? std::string("never")
+                                       : Format("%.2f", e.recovery_median);
       });
     }
     row("policy version", [](E e) {

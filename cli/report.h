@@ -49,6 +49,10 @@ struct EvaluationSummary {
     bool at_limit = false;
   };
   std::vector<DirectionPush> push_directions;
+  // eval --recovery: the share of settled falls standing (held `recovery_hold` s) within 5 s and
+  // 10 s and the median time, s (-1: never); recovery_trials 0 without it.
+  int recovery_trials = 0;
+  double recovery_hold = 0, within_5 = 0, within_10 = 0, recovery_median = -1;
 };
 
 // Throws ConfigError naming `origin` for text that is not JSON or lacks the evaluation's fields.

@@ -338,7 +338,9 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
           "policy_version": 12, "samples": 123456, "reward_terms": {"com": 0.9,
           "end_effector": 0.8, "root": 0.7, "rotation": 0.6, "velocity": 0.5},
           "perturbation": {"survived_90": 20, "protocol": {"directions": [{"direction":
-          "forward", "survived_90": 38.75, "velocity_change": 0.6458, "at_limit": false}]}}})",
+          "forward", "survived_90": 38.75, "velocity_change": 0.6458, "at_limit": false}]}},
+          "recovery": {"trials": 100, "seconds": 10, "hold": 0.5, "within_5": 0.91,
+          "within_10": 0.99, "median_seconds": 1.9667, "times": [], "postures": []}})",
       "eval.json");
   a.gif = std::string("GIF89a\x01\x00\x01\x00", 10);
   a.gif_caption = "5 s of the newest checkpoint";
@@ -370,6 +372,12 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
   EXPECT_NE(html.find("<td>fall rate</td><td class=\"num\">0.05</td>"), std::string::npos);
   EXPECT_NE(html.find("<td>push survived forward, 0.2 s (N s, m/s)</td><td class=\"num\">38.75, "
                       "0.65</td>"),
+            std::string::npos);
+  EXPECT_NE(html.find("<td>standing within 5 s / 10 s of settled falls</td><td class=\"num\">91 "
+                      "% / 99 % of 100, held 0.5 s</td>"),
+            std::string::npos)
+      << html;
+  EXPECT_NE(html.find("<td>median time to stand (s)</td><td class=\"num\">1.97</td>"),
             std::string::npos);
   EXPECT_NE(html.find("<td>policy version</td><td class=\"num\">v12</td>"), std::string::npos);
   EXPECT_NE(html.find("<td class=\"num\">123 456</td>"), std::string::npos);
