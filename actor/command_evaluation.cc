@@ -15,10 +15,6 @@
 namespace ragdoll::actor {
 namespace {
 
-// A push's direction from where the character faces, radians counter-clockwise.
-const std::map<std::string, double> kSideAngle = {
-    {"forward", 0}, {"left", M_PI / 2}, {"backward", M_PI}, {"right", -M_PI / 2}};
-
 // Sums of one command's (or transition's) scored steps.
 struct Sums {
   double steps = 0, speed = 0, heading = 0, imitation = 0;
@@ -74,7 +70,7 @@ CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& m
   }
   if (script.changes.empty()) root.Fail("commands", "required: at least one {at, command}");
   for (const ConfigSection& c : root.SectionList("pushes")) {
-    CommandScript::Push push;
+    TimedPush push;
     push.at = c.Get<double>("at", -1.0);
     push.impulse = c.Get<double>("impulse", -1.0);
     push.direction = c.Get<std::string>("direction", push.direction);
@@ -84,7 +80,7 @@ CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& m
     if (!std::isfinite(push.impulse) || push.impulse < 0 || push.impulse > 10000) {
       c.Fail("impulse", "must be 0-10000 N s");
     }
-    if (!kSideAngle.count(push.direction)) {
+    if (double side; !SideAngle(push.direction, &side)) {
       c.Fail("direction", "'" + push.direction + "': one of forward, backward, left, right");
     }
     if (!std::isfinite(push.duration) || push.duration <= 0 || push.duration > 10) {
@@ -106,43 +102,6 @@ CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& m
   }
   root.Finish();
   return script;
-}
-
-ScriptedPushes::ScriptedPushes(std::vector<CommandScript::Push> pushes,
-                               const sim::Character& character)
-    : pushes_(std::move(pushes)) {
-  for (const CommandScript::Push& p : pushes_) {
-    const int body = p.body.empty() ? character.root_body()
-                                    : mj_name2id(character.model(), mjOBJ_BODY, p.body.c_str());
-    if (body < 1) throw ConfigError("push body '" + p.body + "' is not in the character");
-    bodies_.push_back(body);
-  }
-}
-
-void ScriptedPushes::Before(sim::ImitationEnv& env, double t) {
-  constexpr double kEps = 1e-9;
-  if (active_ >= 0 && t >= pushes_[active_].at + pushes_[active_].duration - kEps) {
-    env.SetExternalForce(bodies_[active_], {0, 0, 0});
-    active_ = -1;
-  }
-  if (active_ < 0 && next_ < pushes_.size() && t >= pushes_[next_].at - kEps) {
-    const CommandScript::Push& p = pushes_[next_];
-    const double angle = kSideAngle.at(p.direction) + env.heading();
-    const double force = p.impulse / p.duration;
-    env.SetExternalForce(bodies_[next_], {force * std::cos(angle), force * std::sin(angle), 0});
-    active_ = static_cast<int>(next_++);
-  }
-}
-
-std::string ScriptedPushes::Describe(double t, double linger) const {
-  for (size_t i = 0; i < next_; ++i) {
-    const CommandScript::Push& p = pushes_[i];
-    if (t < p.at || t > p.at + p.duration + linger) continue;
-    char text[128];
-    std::snprintf(text, sizeof text, "push %.0f N s %s", p.impulse, p.direction.c_str());
-    return text;
-  }
-  return "";
 }
 
 CommandScript RandomCommandScript(const sim::MotionSet& motions, double duration,
@@ -185,12 +144,6 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
   const sim::MotionSet& motions = e.motion_set();
   const double imitation_max = env.reward.MaxReward();
   std::mt19937_64 phases(seed);
-  std::mt19937_64 pushes(seed ^ 0x9e3779b97f4a7c15ULL);
-  const int pelvis = e.character().root_body();
-  const int push_steps = std::max(1, static_cast<int>(std::lround(config.push_duration / dt)));
-  const int push_every = config.push_interval > 0
-                             ? std::max(1, static_cast<int>(std::lround(config.push_interval / dt)))
-                             : 0;
 
   CommandEvalResult result;
   std::map<std::string, Sums> per_command;
@@ -204,6 +157,8 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
     worker.SetCommandFirst(motions.Find(script.changes.front().command));
     worker.ResetFirst(std::uniform_real_distribution<double>(0, 1)(phases));
     ScriptedPushes scripted(script.pushes, e.character());
+    RandomPushes random_pushes(0, config.push_max, config.push_interval, dt, seed + 1 + run,
+                               e.character().root_body());
     ++result.runs;
     size_t next = 1;
     double changed_at = 0;
@@ -237,14 +192,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
         ++next;
       }
       scripted.Before(e, t);
-      if (push_every > 0 && step > 0 && step % push_every == 0) {
-        const double impulse = std::uniform_real_distribution<double>(0, config.push_max)(pushes);
-        const double angle = std::uniform_real_distribution<double>(-M_PI, M_PI)(pushes);
-        const double force = impulse / (push_steps * dt);
-        e.SetExternalForce(pelvis, {force * std::cos(angle), force * std::sin(angle), 0});
-        ++result.pushes;
-      }
-      if (push_every > 0 && step % push_every == push_steps) e.SetExternalForce(pelvis, {0, 0, 0});
+      if (random_pushes.Before(e, step)) ++result.pushes;
       sim::StepResult r = worker.StepFirst(/*deterministic=*/true);
       result.seconds += dt;
       knocked = knocked || r.terminated || e.episode().fell();
@@ -277,7 +225,6 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
     }
     if (!fell) close_transition(false);
     if (knocked) ++result.knocked_down;
-    e.SetExternalForce(pelvis, {0, 0, 0});
   }
   overall.AddTo(&result.overall, dt);
   moving.AddTo(&result.moving, dt);

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "actor/run_pushes.h"
 #include "actor/sim/character.h"
 #include "actor/sim/env_config.h"
-#include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_set.h"
 #include "common/wire.h"
 
@@ -21,18 +21,9 @@ struct CommandScript {
     double at = 0;        // seconds from the start
     std::string command;  // a motion-set entry that is not a transition
   };
-  // A push at a moment of the script: `impulse` N s spread over `duration` s on `body` (empty:
-  // the pelvis), horizontally toward a side of where the character faces when it starts.
-  struct Push {
-    double at = 0;
-    double impulse = 0;
-    std::string direction = "forward";  // forward, backward, left, right
-    double duration = 0.2;
-    std::string body;
-  };
-  std::vector<Change> changes;  // in time order, the first at 0
-  std::vector<Push> pushes;     // in time order, none overlapping
-  double duration = 0;          // seconds
+  std::vector<Change> changes;    // in time order, the first at 0
+  std::vector<TimedPush> pushes;  // in time order, none overlapping
+  double duration = 0;            // seconds
 };
 
 // A YAML file:
@@ -48,23 +39,6 @@ struct CommandScript {
 // change.
 CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions,
                                 const sim::Character& character);
-
-// Gives a script's pushes as its clock passes them, as external forces on the environment.
-class ScriptedPushes {
- public:
-  // Throws ConfigError for a body the character does not have.
-  ScriptedPushes(std::vector<CommandScript::Push> pushes, const sim::Character& character);
-  // Before the control step that starts at script time `t`: starts or ends a push.
-  void Before(sim::ImitationEnv& env, double t);
-  // The push under way or ended less than `linger` s before `t` ("push 60 N s left"), or "".
-  std::string Describe(double t, double linger) const;
-
- private:
-  std::vector<CommandScript::Push> pushes_;
-  std::vector<int> bodies_;
-  size_t next_ = 0;  // the first push not yet started
-  int active_ = -1;  // the push under way
-};
 
 // Commands drawn uniformly from the set (never the current one again), each held for a uniform
 // random interval in [interval_min, interval_max] seconds.
@@ -84,12 +58,11 @@ struct CommandEvalConfig {
   double transition_window = 3.0;
   double transition_speed = 0.25;    // m/s
   double transition_heading = 0.44;  // rad (25 degrees)
-  // Pushes while the script plays: every `push_interval` seconds (0: none) the pelvis is pushed
-  // for `push_duration` s toward a random horizontal direction with an impulse drawn uniformly
-  // from [0, push_max] N s (the seed draws them).
+  // Pushes while the script plays besides its own: every `push_interval` seconds (0: none) on
+  // the pelvis for 0.2 s, toward a random horizontal direction with an impulse drawn uniformly
+  // from [0, push_max] N s (RandomPushes; the seed draws them).
   double push_interval = 0;
   double push_max = 60;
-  double push_duration = 0.2;
 };
 
 struct CommandTracking {

@@ -14,6 +14,7 @@
 
 #include "actor/command_evaluation.h"
 #include "actor/rollout.h"
+#include "actor/run_pushes.h"
 #include "actor/sim/motion_io.h"
 #include "cli/child_process.h"
 #include "cli/trained_policy.h"
@@ -32,42 +33,6 @@ struct BakeOptions {
   uint64_t seed = 1;
   double pushes = 0;      // N s on the pelvis, 0: none
   double push_every = 2;  // s
-};
-
-// Pushes on the pelvis (bake --pushes) in random horizontal directions drawn from the seed, one
-// every `every` seconds, each lasting 0.2 s as in DeepMimic's protocol and `eval --pushes`.
-class PushSchedule {
- public:
-  PushSchedule(double impulse, double every, double rate, uint64_t seed, int pelvis)
-      : impulse_(impulse),
-        rate_(rate),
-        steps_(std::max(1, static_cast<int>(std::lround(0.2 * rate)))),
-        interval_(std::max(steps_ + 1, static_cast<int>(std::lround(every * rate)))),
-        pelvis_(pelvis),
-        rng_(seed) {}
-
-  // Before control step `step` (1-based): starts the push that falls due.
-  void Before(int step, sim::ImitationEnv& env) {
-    if (!(impulse_ > 0) || step == 1 || (step - 1) % interval_ != 0) return;
-    const double angle = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng_);
-    const double force = impulse_ / (steps_ / rate_);
-    env.SetExternalForce(pelvis_, {force * std::cos(angle), force * std::sin(angle), 0});
-    std::fprintf(stderr, "bake: push at %.2f s: %.0f N s on the pelvis toward %.0f deg\n",
-                 (step - 1) / rate_, impulse_, angle * 180 / M_PI);
-    left_ = steps_;
-    ++count_;
-  }
-  // After a control step: ends the push that has lasted its time.
-  void After(sim::ImitationEnv& env) {
-    if (left_ > 0 && --left_ == 0) env.SetExternalForce(pelvis_, {0, 0, 0});
-  }
-  int count() const { return count_; }
-
- private:
-  double impulse_, rate_;
-  int steps_, interval_, pelvis_;
-  std::mt19937_64 rng_;
-  int left_ = 0, count_ = 0;
 };
 
 // Blender converts the baked BVH to FBX (motion/blender/convert.py): Assimp 5.2's FBX writer
@@ -164,16 +129,19 @@ int Bake(const BakeOptions& o) {
 
   std::vector<sim::Pose> frames = {character->QposToPose(e.data().qpos)};
   std::string ending = "";
-  PushSchedule pushes(o.pushes, o.push_every, rate, o.seed, character->root_body());
+  actor::RandomPushes pushes(o.pushes, o.pushes, o.pushes > 0 ? o.push_every : 0, 1 / rate, o.seed,
+                             character->root_body());
   actor::ScriptedPushes scripted(script.pushes, *character);
   for (int s = 1; s <= steps; ++s) {
     if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / rate) {
       worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
     }
-    pushes.Before(s, e);
+    if (pushes.Before(e, s - 1)) {
+      std::fprintf(stderr, "bake: push at %.2f s: %.0f N s on the pelvis toward %.0f deg\n",
+                   (s - 1) / rate, pushes.last_impulse(), pushes.last_angle() * 180 / M_PI);
+    }
     scripted.Before(e, (s - 1) / rate);
     const sim::StepResult r = worker.StepFirst(true);
-    pushes.After(e);
     frames.push_back(character->QposToPose(e.data().qpos));
     if (r.terminated || r.truncated) {
       char line[200];

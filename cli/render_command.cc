@@ -10,6 +10,7 @@
 
 #include "actor/command_evaluation.h"
 #include "actor/rollout.h"
+#include "actor/run_pushes.h"
 #include "actor/sim/motion_io.h"
 #include "actor/sim/steering_task.h"
 #include "cli/render/renderer.h"

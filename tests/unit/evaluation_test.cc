@@ -275,6 +275,36 @@ TEST_F(CommandEvalTest, AScriptsPushesAreGivenAtTheirTimes) {
   EXPECT_EQ(pushes.Describe(1.8, 1.0), "");
 }
 
+// Random pushes at 30 Hz every 1 s: started at steps 30 and 60, each 6 steps (0.2 s) long, of the
+// fixed impulse when its range is one value, toward angles the seed repeats; none when every <= 0.
+TEST_F(CommandEvalTest, RandomPushesComeOnTimeAndLastTheirTime) {
+  sim::ImitationEnv env(character_, motions_, env_, 1);
+  std::vector<float> obs(env.spec().observation_size);
+  env.Reset(obs.data());
+  const int pelvis = character_->root_body();
+  const double* f = env.data().xfrc_applied + 6 * pelvis;
+  RandomPushes a(40, 40, 1.0, 1.0 / 30, 7, pelvis), b(40, 40, 1.0, 1.0 / 30, 7, pelvis);
+  std::vector<int> started, pushing;
+  std::vector<double> angles;
+  for (int step = 0; step < 75; ++step) {
+    if (a.Before(env, step)) {
+      started.push_back(step);
+      angles.push_back(a.last_angle());
+      EXPECT_EQ(a.last_impulse(), 40);
+      EXPECT_NEAR(std::hypot(f[0], f[1]), 40 / 0.2, 1e-9);
+      EXPECT_NEAR(std::atan2(f[1], f[0]), sim::WrapAngle(a.last_angle()), 1e-9);
+    }
+    if (std::hypot(f[0], f[1]) > 0) pushing.push_back(step);
+  }
+  EXPECT_EQ(started, (std::vector<int>{30, 60}));
+  EXPECT_EQ(pushing, (std::vector<int>{30, 31, 32, 33, 34, 35, 60, 61, 62, 63, 64, 65}));
+  EXPECT_EQ(a.count(), 2);
+  for (int step = 0; step <= 30; ++step) b.Before(env, step);
+  EXPECT_EQ(b.last_angle(), angles[0]);
+  RandomPushes none(40, 40, 0, 1.0 / 30, 7, pelvis);
+  for (int step = 0; step < 75; ++step) EXPECT_FALSE(none.Before(env, step));
+}
+
 TEST_F(CommandEvalTest, RandomScriptsAreSeededAndChangeTheCommand) {
   CommandScript a = RandomCommandScript(*motions_, 60, 2, 5, 9);
   CommandScript b = RandomCommandScript(*motions_, 60, 2, 5, 9);
