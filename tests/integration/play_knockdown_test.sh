@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A knock-down in `ragdoll play`, as a player does it: on its own Xvfb display, the trained run
-# (one with environment.recovery) walks for 3 s, xdotool presses K (a hard push on the chest), and
+# (one with environment.recovery) walks for 3 s with W held, xdotool presses K (a hard push on the chest), and
 # the character must fall, get up and walk on. From play's per-step log: a fall within 1.5 s of the
 # knock, then standing (no get-up playing, pelvis upright and high) and travelling at least 0.3 m/s
 # over a second, all within PLAY_TEST_UP_SECONDS (default 6) of the knock; several knock-downs are tried
@@ -25,6 +25,8 @@ source "$(dirname "$0")/play_session.sh" ragdoll-knock
 
 period=$((up_seconds + 6))
 start_play "$run" --seconds $((2 + knocks * period)) --log "$work/play.csv"
+# W held throughout: the player keeps telling it to walk, through the fall and after.
+xdotool keydown --window "$wid" w || fail "xdotool keydown w"
 for _ in $(seq 1 "$knocks"); do
   sleep 3
   xdotool key --window "$wid" k || fail "xdotool key k"
