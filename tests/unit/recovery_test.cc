@@ -93,6 +93,16 @@ class RecoveryEnvTest : public ::testing::Test {
     return std::make_unique<ImitationEnv>(character_, LoadMotionSet(config_, *character_), config_,
                                           seed);
   }
+  // A steering motion set of the stand and the walk.
+  void SteerStandAndWalk() {
+    for (const std::string& m : {kAssets + "/motions/stand.json", kAssets + "/motions/walk.json"}) {
+      MotionSetItem item;
+      item.motion = m;
+      item.name = std::filesystem::path(m).stem().string();
+      config_.steering.motions.push_back(item);
+    }
+    config_.motion = config_.steering.motions.front().motion;
+  }
   const RecoveryTask& Recovery(const ImitationEnv& env) {
     return dynamic_cast<const RecoveryTask&>(env.task());
   }
@@ -362,13 +372,7 @@ TEST_F(RecoveryEnvTest, WithoutRecoveryAFallEndsTheEpisode) {
 // On top of steering: the observation is steering's then the get-up's, and a command given while
 // getting up waits for the hand-back.
 TEST_F(RecoveryEnvTest, SteeringCommandsWaitForTheGetUp) {
-  for (const std::string& m : {kAssets + "/motions/stand.json", kAssets + "/motions/walk.json"}) {
-    MotionSetItem item;
-    item.motion = m;
-    item.name = std::filesystem::path(m).stem().string();
-    config_.steering.motions.push_back(item);
-  }
-  config_.motion = config_.steering.motions.front().motion;
+  SteerStandAndWalk();
   auto env = Make();
   EXPECT_EQ(env->spec().task, "steering");
   EXPECT_EQ(env->spec().observation_size, ObservationSize(*character_) + 5 + 2 + 2);
@@ -390,13 +394,7 @@ TEST_F(RecoveryEnvTest, SteeringCommandsWaitForTheGetUp) {
 // On top of steering, a get-up hands back facing where the character stands: the desired heading
 // and the reference's yaw are the character's own, not the heading held before the fall.
 TEST_F(RecoveryEnvTest, SteeringTakesUpFromWhereTheGetUpEnds) {
-  for (const std::string& m : {kAssets + "/motions/stand.json", kAssets + "/motions/walk.json"}) {
-    MotionSetItem item;
-    item.motion = m;
-    item.name = std::filesystem::path(m).stem().string();
-    config_.steering.motions.push_back(item);
-  }
-  config_.motion = config_.steering.motions.front().motion;
+  SteerStandAndWalk();
   config_.recovery.start_getting_up = 1;
   auto env = Make(3);
   std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
