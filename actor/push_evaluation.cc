@@ -33,17 +33,26 @@ void CheckDirection(const std::string& direction, bool random_allowed) {
 class PushTrials {
  public:
   PushTrials(sim::EnvConfig env, const v1::PolicySnapshot& snapshot, const std::string& body,
-             double duration, double settle, double observe, int trials, uint64_t seed)
+             const std::string& command, double duration, double settle, double observe, int trials,
+             uint64_t seed)
       : worker_(Unleashed(env), 1, 1, seed, "push") {
     if (!(duration > 0) || !(settle >= 0) || !(observe > 0) || trials < 1) {
       throw ConfigError(
           "pushes need a positive duration and watch, a settle time >= 0 and at "
           "least one trial");
     }
-    worker_.SetPolicy(snapshot);
     sim::ImitationEnv& e = worker_.environment(0);
     body_ = mj_name2id(e.character().model(), mjOBJ_BODY, body.c_str());
     if (body_ < 1) throw ConfigError("push body '" + body + "' is not in the character");
+    if (!command.empty()) {
+      const sim::MotionSet& motions = e.motion_set();
+      command_ = env.steering.enabled() ? motions.Find(command) : -1;
+      if (command_ < 0 || motions.entry(command_).transition() || motions.entry(command_).get_up) {
+        throw ConfigError("push command '" + command + "': not a command of the run's motion set" +
+                          (env.steering.enabled() ? "" : " (it has no steering task)"));
+      }
+    }
+    worker_.SetPolicy(snapshot);
     const double dt = env.control_dt();
     settle_ = static_cast<int>(std::lround(settle / dt));
     pushing_ = std::max(1, static_cast<int>(std::lround(duration / dt)));
@@ -100,6 +109,7 @@ class PushTrials {
   // Trial t with a push of `force` newtons toward `direction`: whether the character fell.
   bool Trial(int t, double force, const std::string& direction) {
     sim::ImitationEnv& e = worker_.environment(0);
+    if (command_ >= 0) worker_.SetCommandFirst(command_);
     worker_.ResetFirst(phases_[t]);
     bool ended = false;
     for (int s = 0; s < settle_ + pushing_ + observe_ && !ended; ++s) {
@@ -121,6 +131,7 @@ class PushTrials {
 
   RolloutWorker worker_;
   int body_ = 0;
+  int command_ = -1;  // held through each trial; -1: training's random commands
   int settle_ = 0, pushing_ = 0, observe_ = 0;
   double push_seconds_ = 0;
   std::vector<double> phases_, angles_;
@@ -132,8 +143,8 @@ RobustnessResult EvaluatePushes(const sim::EnvConfig& env, const v1::PolicySnaps
                                 const PushConfig& push, uint64_t seed) {
   CheckDirection(push.direction, true);
   if (push.impulses.empty()) throw ConfigError("pushes need at least one impulse");
-  PushTrials trials(env, snapshot, push.body, push.duration, push.settle, push.observe, push.trials,
-                    seed);
+  PushTrials trials(env, snapshot, push.body, push.command, push.duration, push.settle,
+                    push.observe, push.trials, seed);
   RobustnessResult result;
   result.config = push;
   bool all_survived_so_far = true;
@@ -158,8 +169,8 @@ PushProtocolResult EvaluatePushProtocol(const sim::EnvConfig& env,
       !(protocol.resolution > 0)) {
     throw ConfigError("the push search needs 0 < start <= max impulse and a positive resolution");
   }
-  PushTrials trials(env, snapshot, protocol.body, protocol.duration, protocol.settle,
-                    protocol.observe, protocol.trials, seed);
+  PushTrials trials(env, snapshot, protocol.body, protocol.command, protocol.duration,
+                    protocol.settle, protocol.observe, protocol.trials, seed);
   PushProtocolResult result;
   result.config = protocol;
   result.mass = trials.mass();
@@ -228,12 +239,12 @@ std::string RobustnessResult::ToJson() const {
 
 std::string PushProtocolResult::ToTable() const {
   std::ostringstream out;
-  char line[160];
+  char line[200];
   std::snprintf(line, sizeof(line),
                 "DeepMimic's protocol: pushes on %s for %.2f s, %d trials each (settle %.1f s, "
-                "watch %.1f s), %.1f kg\n",
+                "watch %.1f s), %.1f kg%s%s\n",
                 config.body.c_str(), config.duration, config.trials, config.settle, config.observe,
-                mass);
+                mass, config.command.empty() ? "" : ", command ", config.command.c_str());
   out << line << "  direction   survived in >= 90 %   velocity change   impulses tried\n";
   for (const auto& d : directions) {
     std::snprintf(line, sizeof(line), "  %-9s   %s%7.1f N s   %10.2f m/s   %8d\n",
@@ -262,6 +273,7 @@ std::string PushProtocolResult::ToJson() const {
                       {"max_impulse", config.max_impulse},
                       {"mass", mass},
                       {"directions", list}};
+  if (!config.command.empty()) j["command"] = config.command;
   return j.dump(2);
 }
 

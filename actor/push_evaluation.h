@@ -24,6 +24,8 @@ struct PushConfig {
   double settle = 1.0;
   double observe = 2.0;
   std::string direction = "random";  // or forward, backward, left, right (of the heading)
+  // Steering runs: the command held through every trial (empty: training's random commands).
+  std::string command;
 };
 
 struct PushResult {
@@ -43,7 +45,7 @@ struct RobustnessResult {
   std::string ToJson() const;  // an object, for the evaluation JSON's "perturbation"
 };
 
-// Throws ConfigError for an unknown body or direction.
+// Throws ConfigError for an unknown body, direction or command.
 RobustnessResult EvaluatePushes(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
                                 const PushConfig& push, uint64_t seed);
 
@@ -57,6 +59,7 @@ struct PushProtocolConfig {
   int trials = 20;
   double settle = 1.0;
   double observe = 2.0;
+  std::string command;       // as PushConfig::command
   double start = 10;         // N s
   double max_impulse = 640;  // N s; the search stops there
   double resolution = 2;     // N s
@@ -79,7 +82,7 @@ struct PushProtocolResult {
   std::string ToJson() const;  // an object, the evaluation JSON's "perturbation"."protocol"
 };
 
-// Throws ConfigError for an unknown body or direction, or settings that make no search.
+// Throws ConfigError for an unknown body, direction or command, or settings that make no search.
 PushProtocolResult EvaluatePushProtocol(const sim::EnvConfig& env,
                                         const v1::PolicySnapshot& snapshot,
                                         const PushProtocolConfig& protocol, uint64_t seed);

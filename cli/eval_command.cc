@@ -100,6 +100,15 @@ int RunEval(EvalOptions& o) {
   if (o.pushes) {
     o.protocol.body = o.push.body;
     o.protocol.trials = o.push.trials;
+    // A steered character is pushed while it walks, unless told otherwise.
+    if (o.push.command.empty() && env.steering.enabled()) {
+      for (const auto& m : env.steering.motions) {
+        const std::string name =
+            m.name.empty() ? std::filesystem::path(m.motion).stem().string() : m.name;
+        if (name == "walk") o.push.command = name;
+      }
+    }
+    o.protocol.command = o.push.command;
     protocol = std::make_unique<actor::PushProtocolResult>(
         actor::EvaluatePushProtocol(env, policy.snapshot, o.protocol, o.seed));
     robustness = std::make_unique<actor::RobustnessResult>(
@@ -183,6 +192,9 @@ std::function<int()> AddEvalCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   cmd->add_option("--push-body", o->push.body, "body pushed")->capture_default_str();
+  cmd->add_option("--push-command", o->push.command,
+                  "steering runs: the command held through the push trials (default: walk, "
+                  "where the motion set has one)");
   cmd->add_option("--push-duration", o->push.duration, "seconds a push of the sweep lasts")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -1,5 +1,6 @@
 #include "actor/evaluation.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
@@ -303,6 +304,28 @@ TEST_F(CommandEvalTest, RandomPushesComeOnTimeAndLastTheirTime) {
   EXPECT_EQ(b.last_angle(), angles[0]);
   RandomPushes none(40, 40, 0, 1.0 / 30, 7, pelvis);
   for (int step = 0; step < 75; ++step) EXPECT_FALSE(none.Before(env, step));
+}
+
+// Push trials on a steered character hold the command they are given; one the set does not
+// have, or a command for a run without steering, is refused by name.
+TEST_F(CommandEvalTest, PushTrialsHoldTheirCommand) {
+  PushConfig push;
+  push.impulses = {0};
+  push.trials = 1;
+  push.command = "still";
+  const RobustnessResult held = EvaluatePushes(env_, snapshot_, push, 3);
+  ASSERT_EQ(held.results.size(), 1u);
+  EXPECT_EQ(held.config.command, "still");
+  push.command = "fly";
+  EXPECT_THAT([&] { EvaluatePushes(env_, snapshot_, push, 3); },
+              ::testing::ThrowsMessage<ConfigError>(::testing::HasSubstr(
+                  "push command 'fly': not a command of the run's motion set")));
+  sim::EnvConfig plain = env_;
+  plain.steering.motions.clear();
+  PushProtocolConfig protocol;
+  protocol.command = "walk";
+  EXPECT_THAT([&] { EvaluatePushProtocol(plain, snapshot_, protocol, 3); },
+              ::testing::ThrowsMessage<ConfigError>(::testing::HasSubstr("no steering task")));
 }
 
 TEST_F(CommandEvalTest, RandomScriptsAreSeededAndChangeTheCommand) {
