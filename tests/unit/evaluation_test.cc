@@ -169,10 +169,14 @@ class CommandEvalTest : public ::testing::Test {
     motions_ = sim::LoadMotionSet(env_, *character_);
   }
   std::string Script(const std::string& text) {
-    const std::string path = ::testing::TempDir() + "/script.yaml";
+    // One file per test and call: ctest runs the tests as processes side by side.
+    const std::string path = ::testing::TempDir() + "/" +
+                             ::testing::UnitTest::GetInstance()->current_test_info()->name() + "-" +
+                             std::to_string(scripts_++) + ".yaml";
     std::ofstream(path) << text;
     return path;
   }
+  int scripts_ = 0;
   sim::EnvConfig env_;
   v1::PolicySnapshot snapshot_;
   std::shared_ptr<const sim::Character> character_;
@@ -354,7 +358,7 @@ TEST_F(CommandEvalTest, BadScriptsNameFileLineAndProblem) {
     return std::string();
   };
   EXPECT_NE(error("commands:\n  - {at: 0, command: fly}\n")
-                .find("script.yaml:2: commands[0].command: "
+                .find("-0.yaml:2: commands[0].command: "
                       "'fly' is not a command of the run's "
                       "motion set (stand, still)"),
             std::string::npos);
