@@ -4,26 +4,24 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
 #include "actor/rollout.h"
+#include "actor/run_pushes.h"
 #include "actor/sim/rotation.h"
 #include "common/config_section.h"
 
 namespace ragdoll::actor {
 namespace {
 
-const std::map<std::string, double> kHeadingAngle = {
-    {"forward", 0}, {"left", M_PI / 2}, {"backward", M_PI}, {"right", -M_PI / 2}};
-
 // Survived in at least 90 % of the trials: the one criterion of the sweep and the protocol.
 bool Survived(int falls, int trials) { return falls * 10 <= trials; }
 
 void CheckDirection(const std::string& direction, bool random_allowed) {
-  if ((random_allowed && direction == "random") || kHeadingAngle.count(direction)) return;
+  double side = 0;
+  if ((random_allowed && direction == "random") || SideAngle(direction, &side)) return;
   throw ConfigError("push direction '" + direction + "': one of " +
                     (random_allowed ? "random, " : "") + "forward, backward, left, right");
 }
@@ -117,7 +115,8 @@ class PushTrials {
         double angle = angles_[t];
         if (direction != "random") {
           const double* q = e.data().xquat + 4 * e.character().root_body();
-          angle = kHeadingAngle.at(direction) + sim::YawOf({q[0], q[1], q[2], q[3]});
+          SideAngle(direction, &angle);  // checked before any trial
+          angle += sim::YawOf({q[0], q[1], q[2], q[3]});
         }
         e.SetExternalForce(body_, {force * std::cos(angle), force * std::sin(angle), 0});
       }

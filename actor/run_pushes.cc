@@ -26,7 +26,13 @@ ScriptedPushes::ScriptedPushes(std::vector<TimedPush> pushes, const sim::Charact
     const int body = p.body.empty() ? character.root_body()
                                     : mj_name2id(character.model(), mjOBJ_BODY, p.body.c_str());
     if (body < 1) throw ConfigError("push body '" + p.body + "' is not in the character");
+    double side = 0;
+    if (!SideAngle(p.direction, &side)) {
+      throw ConfigError("push direction '" + p.direction +
+                        "': one of forward, backward, left, right");
+    }
     bodies_.push_back(body);
+    sides_.push_back(side);
   }
 }
 
@@ -36,11 +42,9 @@ void ScriptedPushes::Before(sim::ImitationEnv& env, double t) {
     env.SetExternalForce(bodies_[active_], {0, 0, 0});
     active_ = -1;
   }
-  double side = 0;
-  if (active_ < 0 && next_ < pushes_.size() && t >= pushes_[next_].at - kEps &&
-      SideAngle(pushes_[next_].direction, &side)) {
+  if (active_ < 0 && next_ < pushes_.size() && t >= pushes_[next_].at - kEps) {
     const TimedPush& p = pushes_[next_];
-    const double angle = side + env.heading();
+    const double angle = sides_[next_] + env.heading();
     const double force = p.impulse / p.duration;
     env.SetExternalForce(bodies_[next_], {force * std::cos(angle), force * std::sin(angle), 0});
     active_ = static_cast<int>(next_++);

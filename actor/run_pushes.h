@@ -30,7 +30,8 @@ bool SideAngle(const std::string& direction, double* angle);
 // Gives timed pushes as the run's clock passes them, as external forces on the environment.
 class ScriptedPushes {
  public:
-  // In time order, none overlapping. Throws ConfigError for a body the character does not have.
+  // In time order, none overlapping. Throws ConfigError for a body the character does not have
+  // or an unknown direction.
   ScriptedPushes(std::vector<TimedPush> pushes, const sim::Character& character);
   // Before the control step that starts at run time `t`: starts or ends a push.
   void Before(sim::ImitationEnv& env, double t);
@@ -39,9 +40,10 @@ class ScriptedPushes {
 
  private:
   std::vector<TimedPush> pushes_;
-  std::vector<int> bodies_;
-  size_t next_ = 0;  // the first push not yet started
-  int active_ = -1;  // the push under way
+  std::vector<int> bodies_;    // per push
+  std::vector<double> sides_;  // per push, SideAngle of its direction
+  size_t next_ = 0;            // the first push not yet started
+  int active_ = -1;            // the push under way
 };
 
 // Pushes on one body every `every` s (the first after `every`), each for 0.2 s as in DeepMimic's

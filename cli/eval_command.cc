@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -101,12 +102,10 @@ int RunEval(EvalOptions& o) {
     o.protocol.body = o.push.body;
     o.protocol.trials = o.push.trials;
     // A steered character is pushed while it walks, unless told otherwise.
-    if (o.push.command.empty() && env.steering.enabled()) {
-      for (const auto& m : env.steering.motions) {
-        const std::string name =
-            m.name.empty() ? std::filesystem::path(m.motion).stem().string() : m.name;
-        if (name == "walk") o.push.command = name;
-      }
+    if (o.push.command.empty() &&
+        std::any_of(env.steering.motions.begin(), env.steering.motions.end(),
+                    [](const sim::MotionSetItem& m) { return m.name == "walk"; })) {
+      o.push.command = "walk";
     }
     o.protocol.command = o.push.command;
     protocol = std::make_unique<actor::PushProtocolResult>(

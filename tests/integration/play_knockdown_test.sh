@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # A knock-down in `ragdoll play`, as a player does it: on its own Xvfb display, the trained run
-# (one with environment.recovery) walks for 3 s with W held, xdotool presses K (a hard push on the chest), and
-# the character must fall, get up and walk on. From play's per-step log: a fall within 1.5 s of the
+# (one with environment.recovery) walks for 3 s with W held, xdotool presses K (a hard push on
+# the chest), and the character must fall, get up and walk on. From play's per-step log: a fall within 1.5 s of the
 # knock, then standing (no get-up playing, pelvis upright and high) and travelling at least 0.3 m/s
 # over a second, all within PLAY_TEST_UP_SECONDS (default 6) of the knock; several knock-downs are tried
 # (PLAY_TEST_KNOCKS, default 3) and each is reported, the share that made it asserted

@@ -278,6 +278,9 @@ TEST_F(CommandEvalTest, AScriptsPushesAreGivenAtTheirTimes) {
   EXPECT_EQ(f[1], 0.0);
   EXPECT_EQ(pushes.Describe(1.6, 1.0), "push 400 N s left");
   EXPECT_EQ(pushes.Describe(1.8, 1.0), "");
+  TimedPush up;
+  up.direction = "up";
+  EXPECT_THROW(ScriptedPushes({up}, *character_), ConfigError);
 }
 
 // Random pushes at 30 Hz every 1 s: started at steps 30 and 60, each 6 steps (0.2 s) long, of the

@@ -46,16 +46,16 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EnvConfig c = Read(head +
                      "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n"
                      "    start_fallen: 0.4\n    start_getting_up: 0.1\n"
-                     "    get_up_reward_scale: 0.3\n    early_termination: true\n"
-                     "    early_termination_height: 0.02\n");
+                     "    get_up_reward_scale: 0.3\n    early_termination: false\n"
+                     "    early_termination_height: 0.05\n");
   EXPECT_TRUE(c.recovery.enabled());
   EXPECT_EQ(c.recovery.face_down, "motions/deepmimic/humanoid3d_getup_facedown.txt");
   EXPECT_EQ(c.recovery.face_up, "motions/deepmimic/humanoid3d_getup_faceup.txt");
   EXPECT_DOUBLE_EQ(c.recovery.start_fallen, 0.4);
   EXPECT_DOUBLE_EQ(c.recovery.start_getting_up, 0.1);
   EXPECT_DOUBLE_EQ(c.recovery.get_up_reward_scale, 0.3);
-  EXPECT_TRUE(c.recovery.early_termination);
-  EXPECT_DOUBLE_EQ(c.recovery.early_termination_height, 0.02);
+  EXPECT_FALSE(c.recovery.early_termination);  // not the defaults, which are read below
+  EXPECT_DOUBLE_EQ(c.recovery.early_termination_height, 0.05);
   EXPECT_FALSE(Read("environment:\n  motion: motions/walk.json\n").recovery.enabled());
   const EnvConfig defaults =
       Read(head + "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n");
