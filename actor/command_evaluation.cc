@@ -1,5 +1,6 @@
 #include "actor/command_evaluation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -124,6 +125,50 @@ CommandScript RandomCommandScript(const sim::MotionSet& motions, double duration
   return script;
 }
 
+KnockDownClock::KnockDownClock(double speed_tolerance, double heading_tolerance, double hold)
+    : speed_tolerance_(speed_tolerance), heading_tolerance_(heading_tolerance), hold_(hold) {}
+
+void KnockDownClock::Pushed(double t) { pushed_ = t; }
+
+void KnockDownClock::Step(double t, bool fell, bool getting_up, double speed_error,
+                          double heading_error) {
+  const double began = previous_;  // the step's start: its tracking counts from there
+  previous_ = t;
+  if (fell && down_since_ < 0) down_since_ = t - pushed_ <= kPushToFall ? pushed_ : t;
+  if (down_since_ < 0) return;
+  const bool tracking = !fell && !getting_up && speed_error <= speed_tolerance_ &&
+                        heading_error <= heading_tolerance_;
+  if (!tracking) {
+    good_since_ = -1;
+    return;
+  }
+  if (good_since_ < 0) good_since_ = began;
+  if (t - good_since_ >= hold_ - 1e-9) {
+    seconds_.push_back(t - down_since_);
+    down_since_ = good_since_ = -1;
+  }
+}
+
+void KnockDownClock::End(double t, double window, bool gave_up) {
+  if (gave_up || (down_since_ >= 0 && t - down_since_ >= window)) {
+    seconds_.push_back(std::numeric_limits<double>::infinity());
+  }
+  down_since_ = good_since_ = -1;
+}
+
+int CommandEvalResult::back_within() const {
+  return static_cast<int>(std::count_if(knockdown_seconds.begin(), knockdown_seconds.end(),
+                                        [&](double s) { return s <= back_window; }));
+}
+
+double CommandEvalResult::median_back_seconds() const {
+  if (knockdown_seconds.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> sorted = knockdown_seconds;
+  std::sort(sorted.begin(), sorted.end());
+  const size_t n = sorted.size();
+  return n % 2 ? sorted[n / 2] : (sorted[n / 2 - 1] + sorted[n / 2]) / 2;
+}
+
 CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
                                    const v1::PolicySnapshot& snapshot,
                                    const CommandEvalConfig& config, uint64_t seed) {
@@ -146,6 +191,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
   std::mt19937_64 phases(seed);
 
   CommandEvalResult result;
+  result.back_window = config.back_window;
   std::map<std::string, Sums> per_command;
   Sums overall, moving;
   for (int run = 0; run < config.runs; ++run) {
@@ -159,6 +205,7 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
     ScriptedPushes scripted(script.pushes, e.character());
     RandomPushes random_pushes(0, config.push_max, config.push_interval, dt, seed + 1 + run,
                                e.character().root_body());
+    KnockDownClock knockdowns(config.transition_speed, config.transition_heading, config.back_hold);
     ++result.runs;
     size_t next = 1;
     double changed_at = 0;
@@ -180,8 +227,10 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
     };
     const int steps = static_cast<int>(std::lround(script.duration / dt));
     bool fell = false, knocked = false;
+    double run_time = 0;
     for (int step = 0; step < steps && !fell; ++step) {
       const double t = step * dt;
+      run_time = t + dt;
       if (next < script.changes.size() && t >= script.changes[next].at - 1e-9) {
         close_transition(false);
         previous = motions.entry(steering.command_entry()).name;
@@ -191,10 +240,19 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
         transition = Sums();
         ++next;
       }
-      scripted.Before(e, t);
-      if (random_pushes.Before(e, step)) ++result.pushes;
+      if (scripted.Before(e, t)) knockdowns.Pushed(t);
+      if (random_pushes.Before(e, step)) {
+        ++result.pushes;
+        knockdowns.Pushed(t);
+      }
+      const int falls_before = e.episode().task_falls;
       sim::StepResult r = worker.StepFirst(/*deterministic=*/true);
       result.seconds += dt;
+      if (!r.terminated) {
+        knockdowns.Step(t + dt, e.episode().task_falls > falls_before,
+                        motions.entry(e.reference_entry()).get_up, steering.SpeedError(),
+                        std::abs(steering.HeadingError(e)));
+      }
       knocked = knocked || r.terminated || e.episode().fell();
       if (r.terminated) {
         fell = true;
@@ -225,6 +283,9 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
     }
     if (!fell) close_transition(false);
     if (knocked) ++result.knocked_down;
+    knockdowns.End(run_time, config.back_window, fell);
+    result.knockdown_seconds.insert(result.knockdown_seconds.end(), knockdowns.seconds().begin(),
+                                    knockdowns.seconds().end());
   }
   overall.AddTo(&result.overall, dt);
   moving.AddTo(&result.moving, dt);
@@ -250,6 +311,14 @@ std::string CommandEvalResult::ToTable() const {
                   knocked_down, falls);
     out << line;
   }
+  if (!knockdown_seconds.empty()) {
+    std::snprintf(line, sizeof line,
+                  "  %zu knock-downs, back on command within %.0f s: %d (%.2f), median %.2f s\n",
+                  knockdown_seconds.size(), back_window, back_within(),
+                  static_cast<double>(back_within()) / knockdown_seconds.size(),
+                  median_back_seconds());
+    out << line;
+  }
   out << "  command           settled  speed err  heading°   imitation\n";
   for (const auto& [name, t] : per_command) row(name, t);
   row("(moving)", moving);
@@ -272,6 +341,16 @@ std::string CommandEvalResult::ToJson() const {
                       {"seconds", seconds},
                       {"overall", TrackingJson(overall)},
                       {"moving", TrackingJson(moving)}};
+  if (!knockdown_seconds.empty()) {
+    const double median = median_back_seconds();
+    j["knockdowns"] = {
+        {"count", knockdown_seconds.size()},
+        {"back_window", back_window},
+        {"back_within", back_within()},
+        {"share_back_within", static_cast<double>(back_within()) / knockdown_seconds.size()},
+        // JSON has no infinity: null when half or more never came back.
+        {"median_seconds", std::isfinite(median) ? nlohmann::json(median) : nlohmann::json()}};
+  }
   for (const auto& [name, t] : per_command) j["per_command"][name] = TrackingJson(t);
   for (const auto& [kind, o] : transitions) {
     j["transitions"][kind] = {{"count", o.count},

@@ -45,6 +45,35 @@ CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& m
 CommandScript RandomCommandScript(const sim::MotionSet& motions, double duration,
                                   double interval_min, double interval_max, uint64_t seed);
 
+// Knock-downs of a policy that gets up (EnvConfig::recovery) and the time until it is back on
+// command. A knock-down begins at the push that felled the character (one that started at most
+// kPushToFall s before the fall) or else at the fall, spans any further falls, and ends once the
+// character has tracked its command (speed and heading errors within tolerance, no get-up
+// playing) for `hold` s; its time runs to the end of that hold.
+class KnockDownClock {
+ public:
+  static constexpr double kPushToFall = 1.5;  // s
+  KnockDownClock(double speed_tolerance, double heading_tolerance, double hold);
+  void Pushed(double t);
+  // After each control step, the one that ended at run time `t`: whether the task saw a new fall in
+  // it, whether a get-up plays, and the steering errors (m/s, rad).
+  void Step(double t, bool fell, bool getting_up, double speed_error, double heading_error);
+  // The run ended at `t`: a knock-down still open counts as not back if `window` s have passed
+  // since it began, and is left out otherwise (the run was too short to tell); `gave_up` (the
+  // episode ended in a fall it did not get up from) counts one not back in any case.
+  void End(double t, double window, bool gave_up);
+  // Per knock-down, seconds until back on command; infinity: never back.
+  const std::vector<double>& seconds() const { return seconds_; }
+
+ private:
+  double speed_tolerance_, heading_tolerance_, hold_;
+  double previous_ = 0;     // when the last step ended (the run starts at 0)
+  double pushed_ = -1e9;    // when the latest push started
+  double down_since_ = -1;  // the open knock-down's beginning; < 0: none open
+  double good_since_ = -1;  // the open knock-down: since when it has tracked its command
+  std::vector<double> seconds_;
+};
+
 struct CommandEvalConfig {
   int runs = 20;       // scripted runs, from random clip phases
   bool random = true;  // a new random script per run; else `script` for every run
@@ -63,6 +92,11 @@ struct CommandEvalConfig {
   // from [0, push_max] N s (RandomPushes; the seed draws them).
   double push_interval = 0;
   double push_max = 60;
+  // A knock-down (KnockDownClock) is back on command when the character has tracked it within
+  // transition_speed and transition_heading for back_hold s; the share back within back_window s
+  // is reported.
+  double back_hold = 1.0;
+  double back_window = 6.0;
 };
 
 struct CommandTracking {
@@ -82,11 +116,16 @@ struct CommandEvalResult {
   // Runs that ended in a fall: a fall ends the run, or, for a policy that gets up
   // (EnvConfig::recovery), still being down give_up_after seconds after it.
   int falls = 0;
-  int knocked_down = 0;     // runs with at least one fall, got up or not
-  int pushes = 0;           // pushes given (push_interval)
-  double seconds = 0;       // simulated in all runs
-  CommandTracking overall;  // every settled step
-  CommandTracking moving;   // settled steps of commands that move or turn
+  int knocked_down = 0;  // runs with at least one fall, got up or not
+  int pushes = 0;        // pushes given (push_interval)
+  // Per knock-down (KnockDownClock), s until back on command; infinity: not back.
+  std::vector<double> knockdown_seconds;
+  double back_window = 6.0;            // s: CommandEvalConfig::back_window
+  int back_within() const;             // knock-downs back on command within back_window
+  double median_back_seconds() const;  // infinity when half or more never came back
+  double seconds = 0;                  // simulated in all runs
+  CommandTracking overall;             // every settled step
+  CommandTracking moving;              // settled steps of commands that move or turn
   std::map<std::string, CommandTracking> per_command;
   std::map<std::string, TransitionOutcome> transitions;  // "from->to"
   double fall_rate() const { return runs ? static_cast<double>(falls) / runs : 0; }

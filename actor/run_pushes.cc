@@ -36,7 +36,7 @@ ScriptedPushes::ScriptedPushes(std::vector<TimedPush> pushes, const sim::Charact
   }
 }
 
-void ScriptedPushes::Before(sim::ImitationEnv& env, double t) {
+bool ScriptedPushes::Before(sim::ImitationEnv& env, double t) {
   constexpr double kEps = 1e-9;
   if (active_ >= 0 && t >= pushes_[active_].at + pushes_[active_].duration - kEps) {
     env.SetExternalForce(bodies_[active_], {0, 0, 0});
@@ -48,7 +48,9 @@ void ScriptedPushes::Before(sim::ImitationEnv& env, double t) {
     const double force = p.impulse / p.duration;
     env.SetExternalForce(bodies_[next_], {force * std::cos(angle), force * std::sin(angle), 0});
     active_ = static_cast<int>(next_++);
+    return true;
   }
+  return false;
 }
 
 std::string ScriptedPushes::Describe(double t, double linger) const {

@@ -33,8 +33,9 @@ class ScriptedPushes {
   // In time order, none overlapping. Throws ConfigError for a body the character does not have
   // or an unknown direction.
   ScriptedPushes(std::vector<TimedPush> pushes, const sim::Character& character);
-  // Before the control step that starts at run time `t`: starts or ends a push.
-  void Before(sim::ImitationEnv& env, double t);
+  // Before the control step that starts at run time `t`: starts or ends a push; true when one
+  // started.
+  bool Before(sim::ImitationEnv& env, double t);
   // The push under way or ended less than `linger` s before `t` ("push 60 N s left"), or "".
   std::string Describe(double t, double linger) const;
 

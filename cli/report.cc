@@ -528,6 +528,13 @@ EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string
       s.within_10 = r.at("within_10").get<double>();
       s.recovery_median = r.at("median_seconds").get<double>();
     }
+    if (j.contains("commands") && j.at("commands").contains("knockdowns")) {
+      const nlohmann::json& k = j.at("commands").at("knockdowns");
+      s.knockdowns = k.at("count").get<int>();
+      s.back_window = k.at("back_window").get<double>();
+      s.back_within = k.at("share_back_within").get<double>();
+      s.back_median = k.at("median_seconds").is_null() ? -1 : k.at("median_seconds").get<double>();
+    }
   } catch (const nlohmann::json::exception& e) {
     throw ConfigError(origin + ": not an evaluation written by `ragdoll eval` (" + e.what() + ")");
   }
@@ -815,6 +822,17 @@ std::string EvaluationSection(const std::vector<RunReport>& runs) {
         return e.recovery_trials == 0  ? std::string("—")
                : e.recovery_median < 0 ? std::string("never")
                                        : Format("%.2f", e.recovery_median);
+      });
+    }
+    if (std::any_of(evaluated.begin(), evaluated.end(),
+                    [&](size_t r) { return runs[r].evaluation->knockdowns > 0; })) {
+      row("knock-downs under command: back on command within the window", [](E e) {
+        return e.knockdowns == 0 ? std::string("—")
+                                 : Format("%.0f %%", 100 * e.back_within) + " of " +
+                                       std::to_string(e.knockdowns) + " within " +
+                                       Format("%g", e.back_window) + " s, median " +
+                                       (e.back_median < 0 ? std::string("never")
+                                                          : Format("%.2f s", e.back_median));
       });
     }
     row("policy version", [](E e) {

@@ -53,6 +53,10 @@ struct EvaluationSummary {
   // 10 s and the median time, s (-1: never); recovery_trials 0 without it.
   int recovery_trials = 0;
   double recovery_hold = 0, within_5 = 0, within_10 = 0, recovery_median = -1;
+  // eval --commands with knock-downs: how many, the share back on command within `back_window`
+  // s and the median time, s (-1: never); knockdowns 0 without any.
+  int knockdowns = 0;
+  double back_window = 0, back_within = 0, back_median = -1;
 };
 
 // Throws ConfigError naming `origin` for text that is not JSON or lacks the evaluation's fields.

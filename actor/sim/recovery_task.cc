@@ -152,7 +152,7 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   if (PostureOf(env.character(), env.data(), stand_height_) == Posture::kStanding) {
     get_up_entry_ = -1;
     inner_->Resume(env);  // first: the reference is placed facing the heading it resumes with
-    env.SwitchReference(inner_->StartEntry(env.motion_set()));
+    env.SwitchReference(inner_->ResumeEntry(env.motion_set()));
   } else if (config_.early_termination) {
     // Entered again, the get-up's easy middle would pay for missing its hard end.
     get_up_failed_ = true;

@@ -77,6 +77,11 @@ void SteeringTask::Resume(TaskHost& env) {
   FaceAndTravelAsNow(env);
 }
 
+int SteeringTask::ResumeEntry(const MotionSet& set) const {
+  const int transition = set.Transition(set.Nearest(Command{}), command_entry_);
+  return transition >= 0 ? transition : command_entry_;
+}
+
 void SteeringTask::FaceAndTravelAsNow(const TaskHost& env) {
   desired_heading_ = env.heading();
   // The travel history as if the character had moved at its current root velocity for the

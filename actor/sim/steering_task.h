@@ -42,6 +42,9 @@ class SteeringTask final : public Task {
   bool Advance(TaskHost& env, std::mt19937_64& rng) override;
   // After a get-up: the desired heading is where the character faces, the travel history new.
   void Resume(TaskHost& env) override;
+  // The transition from standing to the command where the set has one (a get-up ends standing,
+  // and the command's clip may be mid-stride), else the command's clip.
+  int ResumeEntry(const MotionSet& set) const override;
   // The reference faces where the character is told to face.
   std::optional<double> reference_heading() const override { return desired_heading_; }
   double Reward(const TaskHost& env, const PoseFeatures& character) override;

@@ -85,8 +85,10 @@ class Task {
   // itself this step (the environment then leaves it where the task put it).
   virtual bool Advance(TaskHost& /*env*/, std::mt19937_64& /*rng*/) { return false; }
   // A get-up has handed back (RecoveryTask): the task takes up from where the character stands;
-  // its reference is switched to StartEntry right after.
+  // its reference is switched to ResumeEntry right after.
   virtual void Resume(TaskHost& /*env*/) {}
+  // The entry a get-up, which ends standing, hands back to.
+  virtual int ResumeEntry(const MotionSet& set) const { return StartEntry(set); }
   // Whether a body outside allowed_contacts touching the ground, or the root straying from the
   // reference, ends the episode (DeepMimic's early termination); a task that gets up does not.
   virtual bool falls_end_episode() const { return true; }

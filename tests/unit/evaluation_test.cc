@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 
 #include "actor/command_evaluation.h"
 #include "actor/push_evaluation.h"
@@ -391,6 +393,67 @@ TEST_F(CommandEvalTest, BadScriptsNameFileLineAndProblem) {
   sim::EnvConfig plain = env_;
   plain.steering.motions.clear();
   EXPECT_THROW(EvaluateCommands(plain, snapshot_, CommandEvalConfig(), 1), std::invalid_argument);
+}
+
+// Time from a knock-down until back on command, steps of 0.1 s: from the push that felled it,
+// through a second fall, to the end of a full second of tracking; a knock-down still open when
+// the run ends counts only once the window has passed, or when the episode gave up.
+TEST(KnockDownClockTest, TimesFromTheKnockToASecondBackOnCommand) {
+  KnockDownClock clock(0.25, 0.44, 1.0);
+  double t = 0;
+  // Steps up to `until`, all alike.
+  auto steps = [&](double until, bool getting_up, double speed_error) {
+    while (t < until - 1e-9) {
+      t += 0.1;
+      clock.Step(t, false, getting_up, speed_error, 0.1);
+    }
+  };
+  steps(2.0, false, 0.1);
+  clock.Pushed(2.0);
+  steps(2.5, false, 0.6);
+  t += 0.1;
+  clock.Step(t, /*fell=*/true, true, 2.0, 0.1);  // 0.6 s after the push: the knock counts
+  steps(5.0, true, 2.0);
+  steps(5.5, false, 0.1);  // half a second back on command, then off it, and down again
+  steps(5.7, false, 0.4);
+  t += 0.1;
+  clock.Step(t, true, true, 2.0, 0.1);
+  steps(7.0, true, 2.0);
+  steps(7.9, false, 0.1);
+  EXPECT_TRUE(clock.seconds().empty());
+  steps(8.0, false, 0.1);  // the tenth tracked step: a full second, from 7.0
+  ASSERT_EQ(clock.seconds().size(), 1u);
+  EXPECT_NEAR(clock.seconds()[0], 6.0, 1e-9);
+
+  clock.Pushed(10.0);
+  steps(12.0, false, 0.1);
+  t += 0.1;
+  clock.Step(t, true, true, 2.0, 0.1);  // 2.1 s after the push: timed from the fall
+  steps(13.0, true, 2.0);
+  steps(14.0, false, 0.1);
+  ASSERT_EQ(clock.seconds().size(), 2u);
+  EXPECT_NEAR(clock.seconds()[1], 14.0 - 12.1, 1e-9);
+
+  t += 0.1;
+  clock.Step(t, true, true, 2.0, 0.1);
+  steps(16.0, true, 2.0);
+  clock.End(t, 6.0, false);  // 1.9 s down: too soon to tell
+  EXPECT_EQ(clock.seconds().size(), 2u);
+
+  KnockDownClock gave_up(0.25, 0.44, 1.0);
+  gave_up.Step(0.1, true, true, 2.0, 0.1);
+  gave_up.End(0.2, 6.0, true);
+  ASSERT_EQ(gave_up.seconds().size(), 1u);
+  EXPECT_TRUE(std::isinf(gave_up.seconds()[0]));
+
+  CommandEvalResult r;
+  r.knockdown_seconds = {4.0, 8.0, std::numeric_limits<double>::infinity()};
+  EXPECT_EQ(r.back_within(), 1);
+  EXPECT_NEAR(r.median_back_seconds(), 8.0, 1e-12);
+  EXPECT_NE(r.ToTable().find("3 knock-downs, back on command within 6 s: 1 (0.33), median 8.00 s"),
+            std::string::npos)
+      << r.ToTable();
+  EXPECT_NE(r.ToJson().find("\"share_back_within\": 0.333"), std::string::npos) << r.ToJson();
 }
 
 }  // namespace

@@ -424,5 +424,35 @@ TEST_F(RecoveryEnvTest, SteeringTakesUpFromWhereTheGetUpEnds) {
   EXPECT_NEAR(WrapAngle(YawOf(reference) - YawOf(character)), 0.0, 0.15);
 }
 
+// A get-up ends standing: told to walk, it hands back through the set's stand-to-walk transition
+// (the walk's clip may be mid-stride); told to stand, to the stand itself.
+TEST_F(RecoveryEnvTest, AGetUpHandsBackThroughTheTransitionFromStanding) {
+  SteerStandAndWalk();
+  MotionSetItem start;
+  start.motion = kAssets + "/motions/walk_start.json";
+  start.name = "walk_start";
+  start.from = "stand";
+  start.to = "walk";
+  config_.steering.motions.push_back(start);
+  config_.recovery.start_getting_up = 1;
+  for (const std::string command : {"walk", "stand"}) {
+    SCOPED_TRACE(command);
+    auto env = Make(3);
+    std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+    env->Reset(obs.data());
+    ASSERT_TRUE(Recovery(*env).recovering());
+    Steering(*env).SetCommand(*env, env->motion_set().Find(command));
+    std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+    for (int steps = 0; Recovery(*env).recovering() && steps < 200; ++steps) {
+      env->ReferenceState(env->time(), qpos.data(), qvel.data());  // the get-up played as shown
+      env->SetState(qpos.data(), qvel.data());
+      ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated);
+    }
+    ASSERT_FALSE(Recovery(*env).recovering());
+    EXPECT_EQ(env->motion_set().entry(env->reference_entry()).name,
+              command == "walk" ? "walk_start" : "stand");
+  }
+}
+
 }  // namespace
 }  // namespace ragdoll::sim

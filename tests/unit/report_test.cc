@@ -340,7 +340,9 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
           "perturbation": {"survived_90": 20, "protocol": {"directions": [{"direction":
           "forward", "survived_90": 38.75, "velocity_change": 0.6458, "at_limit": false}]}},
           "recovery": {"trials": 100, "seconds": 10, "hold": 0.5, "within_5": 0.91,
-          "within_10": 0.99, "median_seconds": 1.9667, "times": [], "postures": []}})",
+          "within_10": 0.99, "median_seconds": 1.9667, "times": [], "postures": []},
+          "commands": {"runs": 20, "knockdowns": {"count": 80, "back_window": 6, "back_within": 72,
+          "share_back_within": 0.9, "median_seconds": 4.8}}})",
       "eval.json");
   a.gif = std::string("GIF89a\x01\x00\x01\x00", 10);
   a.gif_caption = "5 s of the newest checkpoint";
@@ -375,6 +377,10 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
             std::string::npos);
   EXPECT_NE(html.find("<td>standing within 5 s / 10 s of settled falls</td><td class=\"num\">91 "
                       "% / 99 % of 100, held 0.5 s</td>"),
+            std::string::npos)
+      << html;
+  EXPECT_NE(html.find("<td>knock-downs under command: back on command within the window</td>"
+                      "<td class=\"num\">90 % of 80 within 6 s, median 4.80 s</td>"),
             std::string::npos)
       << html;
   EXPECT_NE(html.find("<td>median time to stand (s)</td><td class=\"num\">1.97</td>"),
