@@ -240,7 +240,10 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
         transition = Sums();
         ++next;
       }
-      if (scripted.Before(e, t)) knockdowns.Pushed(t);
+      if (scripted.Before(e, t)) {
+        ++result.pushes;
+        knockdowns.Pushed(t);
+      }
       if (random_pushes.Before(e, step)) {
         ++result.pushes;
         knockdowns.Pushed(t);

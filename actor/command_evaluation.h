@@ -117,7 +117,7 @@ struct CommandEvalResult {
   // (EnvConfig::recovery), still being down give_up_after seconds after it.
   int falls = 0;
   int knocked_down = 0;  // runs with at least one fall, got up or not
-  int pushes = 0;        // pushes given (push_interval)
+  int pushes = 0;        // pushes given, the script's and push_interval's
   // Per knock-down (KnockDownClock), s until back on command; infinity: not back.
   std::vector<double> knockdown_seconds;
   double back_window = 6.0;            // s: CommandEvalConfig::back_window

@@ -69,8 +69,16 @@ std::string Caption(const std::string& clip, double t, const std::string& policy
 // The command, and how well the character follows it.
 std::string SteeringCaption(const sim::ImitationEnv& e) {
   const sim::SteeringTask& steering = sim::Steering(e);
-  const sim::Vec3 v = steering.TravelVelocity();
   char text[256];
+  const sim::MotionSetEntry& reference = e.motion_set().entry(e.reference_entry());
+  if (reference.get_up) {
+    // Travel is not tracked while a get-up plays: what plays instead.
+    std::snprintf(text, sizeof(text), "\ncommand %s\nplaying %s",
+                  e.motion_set().entry(steering.command_entry()).name.c_str(),
+                  reference.name.c_str());
+    return text;
+  }
+  const sim::Vec3 v = steering.TravelVelocity();
   std::snprintf(text, sizeof(text), "\ncommand %s\nspeed %.2f m/s, heading error %.0f deg",
                 e.motion_set().entry(steering.command_entry()).name.c_str(), std::hypot(v[0], v[1]),
                 steering.HeadingError(e) * 180 / M_PI);

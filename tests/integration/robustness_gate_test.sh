@@ -5,7 +5,9 @@
 # least 3/4 of the recorded impulse (the margin covers other CPUs' float rounding, which changes
 # single trials; a broken push, reward or controller costs far more). A policy that gets up has
 # its recovery recorded too ("recovery": {"trials", "within_10"}): as many settled falls, and the
-# share standing within 10 s at most 0.15 below the recorded one.
+# share standing within 10 s at most 0.15 below the recorded one; and its knock-downs under
+# command ("knockdowns": {"runs", "share_back_within"}): as many runs of docs/knockdowns.yaml, and
+# the share back on command within 6 s at most 0.15 below the recorded one.
 #   robustness_gate_test.sh RAGDOLL CHECKPOINT RECORDED_JSON
 set -euo pipefail
 ragdoll=$1 checkpoint=$2 recorded=$3
@@ -13,9 +15,12 @@ out=$(mktemp /tmp/ragdoll-gate.XXXXXX.json)
 trap 'rm -f "$out"' EXIT
 recovery=$(python3 -c 'import json, sys; r = json.load(open(sys.argv[1])).get("recovery")
 print("--recovery %d" % r["trials"] if r else "")' "$recorded")
+knockdowns=$(python3 -c 'import json, sys; k = json.load(open(sys.argv[1])).get("knockdowns")
+print("--commands %s --command-runs %d" % (sys.argv[2], k["runs"]) if k else "")' \
+  "$recorded" "$(dirname "$0")/../../docs/knockdowns.yaml")
 # shellcheck disable=SC2086  # $recovery is empty or two words
 "$ragdoll" eval "$checkpoint" --pushes --push-trials 10 --push-resolution 4 --episodes 4 \
-  --push-impulses 0 $recovery --json "$out" > /dev/null
+  --push-impulses 0 $recovery $knockdowns --json "$out" > /dev/null
 python3 - "$out" "$recorded" <<'PY'
 import json, sys
 got, want = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
@@ -36,6 +41,13 @@ if "recovery" in want:
           f"recorded {want['recovery']['within_10']:.2f}, floor {floor:.2f}")
     if r["within_10"] < floor:
         failures.append(f"recovery within 10 s {r['within_10']:.2f} < {floor:.2f}")
+if "knockdowns" in want:
+    k, floor = got["commands"]["knockdowns"], want["knockdowns"]["share_back_within"] - 0.15
+    print(f"knocked   {k['share_back_within']:.2f} of {k['count']} knock-downs back on command "
+          f"within {k['back_window']:g} s, recorded {want['knockdowns']['share_back_within']:.2f}, "
+          f"floor {floor:.2f}")
+    if k["share_back_within"] < floor:
+        failures.append(f"back on command {k['share_back_within']:.2f} < {floor:.2f}")
 for f in failures:
     print("FAIL:", f)
 sys.exit(1 if failures else 0)

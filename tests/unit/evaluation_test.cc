@@ -260,22 +260,23 @@ TEST_F(CommandEvalTest, AScriptsPushesAreGivenAtTheirTimes) {
       *character_);
   const CommandEvalResult r = EvaluateCommands(env_, snapshot_, c, 5);
   EXPECT_EQ(r.falls, 1) << r.ToTable();
+  EXPECT_EQ(r.pushes, 1);
   EXPECT_LT(r.seconds, 1.5);
 
   sim::ImitationEnv env(character_, motions_, env_, 1);
   std::vector<float> obs(env.spec().observation_size);
   env.Reset(obs.data());
   ScriptedPushes pushes(c.script.pushes, *character_);
-  pushes.Before(env, 0.4);
+  EXPECT_FALSE(pushes.Before(env, 0.4));
   EXPECT_EQ(pushes.Describe(0.4, 1.0), "");
-  pushes.Before(env, 0.5);
+  EXPECT_TRUE(pushes.Before(env, 0.5));
   const int chest = mj_name2id(character_->model(), mjOBJ_BODY, "chest");
   const double* f = env.data().xfrc_applied + 6 * chest;
   EXPECT_NEAR(std::hypot(f[0], f[1]), 400 / 0.2, 1e-9);
   // Left of where the character faces: 90 degrees counter-clockwise of its heading.
   EXPECT_NEAR(std::atan2(f[1], f[0]), sim::WrapAngle(env.heading() + M_PI / 2), 1e-9);
   EXPECT_EQ(pushes.Describe(0.6, 1.0), "push 400 N s left");
-  pushes.Before(env, 0.7);
+  EXPECT_FALSE(pushes.Before(env, 0.7));
   EXPECT_EQ(f[0], 0.0);
   EXPECT_EQ(f[1], 0.0);
   EXPECT_EQ(pushes.Describe(1.6, 1.0), "push 400 N s left");
