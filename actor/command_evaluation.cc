@@ -144,7 +144,7 @@ void KnockDownClock::Step(double t, bool fell, bool getting_up, double speed_err
   }
   if (good_since_ < 0) good_since_ = began;
   if (t - good_since_ >= hold_ - 1e-9) {
-    seconds_.push_back(t - down_since_);
+    seconds_.push_back(good_since_ - down_since_);
     down_since_ = good_since_ = -1;
   }
 }
@@ -351,8 +351,12 @@ std::string CommandEvalResult::ToJson() const {
         {"back_window", back_window},
         {"back_within", back_within()},
         {"share_back_within", static_cast<double>(back_within()) / knockdown_seconds.size()},
-        // JSON has no infinity: null when half or more never came back.
+        // JSON has no infinity: null for never back (the median: when half or more never were).
         {"median_seconds", std::isfinite(median) ? nlohmann::json(median) : nlohmann::json()}};
+    nlohmann::json& times = j["knockdowns"]["seconds"] = nlohmann::json::array();
+    for (double t : knockdown_seconds) {
+      times.push_back(std::isfinite(t) ? nlohmann::json(t) : nlohmann::json());
+    }
   }
   for (const auto& [name, t] : per_command) j["per_command"][name] = TrackingJson(t);
   for (const auto& [kind, o] : transitions) {

@@ -49,7 +49,8 @@ CommandScript RandomCommandScript(const sim::MotionSet& motions, double duration
 // command. A knock-down begins at the push that felled the character (one that started at most
 // kPushToFall s before the fall) or else at the fall, spans any further falls, and ends once the
 // character has tracked its command (speed and heading errors within tolerance, no get-up
-// playing) for `hold` s; its time runs to the end of that hold.
+// playing) for `hold` s; its time runs to the start of that hold, as a settling time does (from
+// then on it walks as told).
 class KnockDownClock {
  public:
   static constexpr double kPushToFall = 1.5;  // s

@@ -397,7 +397,7 @@ TEST_F(CommandEvalTest, BadScriptsNameFileLineAndProblem) {
 }
 
 // Time from a knock-down until back on command, steps of 0.1 s: from the push that felled it,
-// through a second fall, to the end of a full second of tracking; a knock-down still open when
+// through a second fall, to the start of a full second of tracking; a knock-down still open when
 // the run ends counts only once the window has passed, or when the episode gave up.
 TEST(KnockDownClockTest, TimesFromTheKnockToASecondBackOnCommand) {
   KnockDownClock clock(0.25, 0.44, 1.0);
@@ -422,9 +422,9 @@ TEST(KnockDownClockTest, TimesFromTheKnockToASecondBackOnCommand) {
   steps(7.0, true, 2.0);
   steps(7.9, false, 0.1);
   EXPECT_TRUE(clock.seconds().empty());
-  steps(8.0, false, 0.1);  // the tenth tracked step: a full second, from 7.0
+  steps(8.0, false, 0.1);  // the tenth tracked step: a full second from 7.0, back since 7.0
   ASSERT_EQ(clock.seconds().size(), 1u);
-  EXPECT_NEAR(clock.seconds()[0], 6.0, 1e-9);
+  EXPECT_NEAR(clock.seconds()[0], 7.0 - 2.0, 1e-9);
 
   clock.Pushed(10.0);
   steps(12.0, false, 0.1);
@@ -433,7 +433,7 @@ TEST(KnockDownClockTest, TimesFromTheKnockToASecondBackOnCommand) {
   steps(13.0, true, 2.0);
   steps(14.0, false, 0.1);
   ASSERT_EQ(clock.seconds().size(), 2u);
-  EXPECT_NEAR(clock.seconds()[1], 14.0 - 12.1, 1e-9);
+  EXPECT_NEAR(clock.seconds()[1], 13.0 - 12.1, 1e-9);
 
   t += 0.1;
   clock.Step(t, true, true, 2.0, 0.1);
