@@ -23,7 +23,7 @@ knocks=${PLAY_TEST_KNOCKS:-3} up_seconds=${PLAY_TEST_UP_SECONDS:-6}
 
 source "$(dirname "$0")/play_session.sh" ragdoll-knock
 
-period=$((up_seconds + 6))
+period=$((up_seconds + 3))  # time to fall, get up, and walk for the check's second
 start_play "$run" --seconds $((2 + knocks * period)) --log "$work/play.csv"
 # W held throughout: the player keeps telling it to walk, through the fall and after.
 xdotool keydown --window "$wid" w || fail "xdotool keydown w"
