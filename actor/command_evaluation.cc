@@ -315,11 +315,14 @@ std::string CommandEvalResult::ToTable() const {
     out << line;
   }
   if (!knockdown_seconds.empty()) {
+    char median[32] = "never";
+    if (std::isfinite(median_back_seconds())) {
+      std::snprintf(median, sizeof median, "%.2f s", median_back_seconds());
+    }
     std::snprintf(line, sizeof line,
-                  "  %zu knock-downs, back on command within %.0f s: %d (%.2f), median %.2f s\n",
+                  "  %zu knock-downs, back on command within %.0f s: %d (%.2f), median %s\n",
                   knockdown_seconds.size(), back_window, back_within(),
-                  static_cast<double>(back_within()) / knockdown_seconds.size(),
-                  median_back_seconds());
+                  static_cast<double>(back_within()) / knockdown_seconds.size(), median);
     out << line;
   }
   out << "  command           settled  speed err  heading°   imitation\n";

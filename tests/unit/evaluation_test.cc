@@ -455,6 +455,9 @@ TEST(KnockDownClockTest, TimesFromTheKnockToASecondBackOnCommand) {
             std::string::npos)
       << r.ToTable();
   EXPECT_NE(r.ToJson().find("\"share_back_within\": 0.333"), std::string::npos) << r.ToJson();
+  r.knockdown_seconds = {4.0, std::numeric_limits<double>::infinity()};
+  EXPECT_NE(r.ToTable().find("median never"), std::string::npos) << r.ToTable();
+  EXPECT_NE(r.ToJson().find("\"median_seconds\": null"), std::string::npos) << r.ToJson();
 }
 
 }  // namespace
