@@ -286,9 +286,12 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
     }
     if (!fell) close_transition(false);
     if (knocked) ++result.knocked_down;
-    knockdowns.End(run_time, config.back_window, fell);
-    result.knockdown_seconds.insert(result.knockdown_seconds.end(), knockdowns.seconds().begin(),
-                                    knockdowns.seconds().end());
+    // Without recovery every fall ends the run: the fall rate says it all.
+    if (env.recovery.enabled()) {
+      knockdowns.End(run_time, config.back_window, fell);
+      result.knockdown_seconds.insert(result.knockdown_seconds.end(), knockdowns.seconds().begin(),
+                                      knockdowns.seconds().end());
+    }
   }
   overall.AddTo(&result.overall, dt);
   moving.AddTo(&result.moving, dt);

@@ -119,7 +119,8 @@ struct CommandEvalResult {
   int falls = 0;
   int knocked_down = 0;  // runs with at least one fall, got up or not
   int pushes = 0;        // pushes given, the script's and push_interval's
-  // Per knock-down (KnockDownClock), s until back on command; infinity: not back.
+  // A policy that gets up: per knock-down (KnockDownClock), s until back on command; infinity:
+  // not back.
   std::vector<double> knockdown_seconds;
   double back_window = 6.0;            // s: CommandEvalConfig::back_window
   int back_within() const;             // knock-downs back on command within back_window
