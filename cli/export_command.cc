@@ -133,7 +133,16 @@ json Steering(const sim::EnvConfig& c, const sim::ImitationEnv& env) {
            "on a new command the reference becomes its clip (or the transition clip from the old "
            "command's clip, when one is listed, which hands over to its `to` clip when it ends), "
            "entered at the key frame whose joint rotations are closest to the character's; the "
-           "phase entries then follow that clip"},
+           "phase entries then follow that clip. With catch_steps: told to stand (the command "
+           "nearest zero), when the pelvis's horizontal speed exceeds `above` m/s while the stand "
+           "clip is the reference, the reference becomes for `seconds` the command clip whose "
+           "command is nearest the pelvis velocity seen from the desired heading (none if that is "
+           "the stand), entered as above; the command entries stay the stand's, and a command "
+           "given meanwhile waits until the step ends and the reference leads to it (through a "
+           "listed transition from the stepping clip)"},
+          {"catch_steps", c.steering.catch_above > 0 ? json{{"above", c.steering.catch_above},
+                                                            {"seconds", c.steering.catch_seconds}}
+                                                     : json(nullptr)},
           {"task_reward",
            {{"velocity_weight", c.steering.velocity_weight},
             {"heading_weight", c.steering.heading_weight},
@@ -174,8 +183,11 @@ json Recovery(const sim::EnvConfig& c, const sim::ImitationEnv& env) {
        "rotations are closest to the character's and turned about the vertical so that the yaw "
        "of the pelvis's forward plus up axes matches the character's. When the clip has played: "
        "if the character stands (pelvis up axis within 30 degrees of vertical, pelvis above "
-       "stand_height) the reference returns to the clip it left (with steering, the current "
-       "command's) at its closest key frame; if not, the get-up starts again the same way."}};
+       "stand_height) the reference returns to the clip it left at its closest key frame (with "
+       "steering: to the stand for stand_after_get_up seconds, the command entries the stand's, "
+       "then to the current command through the transition listed from the stand, if any); if "
+       "not, the get-up starts again the same way."},
+      {"stand_after_get_up", c.recovery.stand_after_get_up}};
 }
 
 json Sidecar(const TrainedPolicy& p, sim::ImitationEnv& env, const ExportOptions& o,

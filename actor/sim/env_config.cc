@@ -94,6 +94,12 @@ void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
   c->heading_scale = NonNegative(task, "heading_scale", c->heading_scale);
   c->velocity_window = Positive(task, "velocity_window", c->velocity_window);
   task.Finish();
+  if (s.Has("catch_steps")) {
+    ConfigSection steps = s.Section("catch_steps");
+    c->catch_above = Positive(steps, "above", 0.5);
+    c->catch_seconds = Positive(steps, "seconds", 0.7);
+    steps.Finish();
+  }
   s.Finish();
 }
 
@@ -151,6 +157,7 @@ void ReadRecovery(const ConfigSection& parent, RecoveryConfig* c) {
   c->early_termination_height =
       Positive(s, "early_termination_height", c->early_termination_height);
   if (c->early_termination_height > 1) s.Fail("early_termination_height", "must be at most 1 m");
+  c->stand_after_get_up = NonNegative(s, "stand_after_get_up", c->stand_after_get_up);
   s.Finish();
 }
 }  // namespace

@@ -68,6 +68,12 @@ struct SteeringConfig {
   double velocity_scale = 4.0;
   double heading_scale = 2.0;
   double velocity_window = 0.5;
+  // Catch steps (`catch_steps: {above, seconds}`; absent: none): told to stand, a character whose
+  // pelvis moves faster than `above` m/s (a push) imitates for `seconds` the clip of the set whose
+  // travel is nearest its own, then stands again (through the set's transition): standing still
+  // has no step to imitate, and a push of more than about 0.5 m/s needs one.
+  double catch_above = 0;  // m/s; 0: off
+  double catch_seconds = 0;
   bool enabled() const { return !motions.empty(); }
   double MaxReward() const { return enabled() ? velocity_weight + heading_weight : 0.0; }
 };
@@ -109,6 +115,9 @@ struct RecoveryConfig {
   // (docs/training-experiments.md, A-I).
   bool early_termination = true;
   double early_termination_height = 0.02;
+  // Steering: after a get-up the character is told to stand this long (s) before the command
+  // leads again; a get-up ends off balance, and starting to walk from there fell again.
+  double stand_after_get_up = 0.0;
   bool enabled() const { return !face_down.empty(); }
 };
 

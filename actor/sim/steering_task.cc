@@ -10,7 +10,9 @@
 namespace ragdoll::sim {
 
 SteeringTask::SteeringTask(const EnvConfig& config)
-    : config_(config.steering), control_dt_(config.control_dt()) {
+    : config_(config.steering),
+      control_dt_(config.control_dt()),
+      stand_after_get_up_(config.recovery.stand_after_get_up) {
   if (!config_.enabled()) throw std::invalid_argument("a steering task needs steering.motions");
   // The set's first command, as MotionSet::commands() orders them.
   const auto& items = config_.motions;
@@ -43,9 +45,10 @@ void SteeringTask::Check(const MotionSet& set) const {
 void SteeringTask::WriteObservation(const TaskHost& env, float* out) const {
   const double error = WrapAngle(desired_heading_ - env.heading());
   const double c = std::cos(error), s = std::sin(error);
-  *out++ = static_cast<float>(c * command_.forward - s * command_.left);
-  *out++ = static_cast<float>(s * command_.forward + c * command_.left);
-  *out++ = static_cast<float>(command_.turn);
+  const Command& asked = Asked();
+  *out++ = static_cast<float>(c * asked.forward - s * asked.left);
+  *out++ = static_cast<float>(s * asked.forward + c * asked.left);
+  *out++ = static_cast<float>(asked.turn);
   *out++ = static_cast<float>(s);
   *out++ = static_cast<float>(c);
   // The get-up clips (EnvConfig::recovery) follow the steering clips and are not among these.
@@ -63,9 +66,15 @@ void SteeringTask::ChooseEpisode(const TaskHost& env, std::mt19937_64& rng) {
 }
 
 void SteeringTask::Start(TaskHost& env, std::mt19937_64& rng) {
-  command_ = env.motion_set().entry(command_entry_).command;
+  const MotionSet& set = env.motion_set();
+  command_ = set.entry(command_entry_).command;
+  stand_entry_ = set.Nearest(Command{});
+  standing_ = set.entry(stand_entry_).command;
+  catching_ = -1;
   error_sums_[0] = error_sums_[1] = 0;
   episode_time_ = 0;
+  stand_until_ = -1;
+  resume_pending_ = false;
   FaceAndTravelAsNow(env);
   next_command_time_ = std::uniform_real_distribution<double>(config_.command_interval_min,
                                                               config_.command_interval_max)(rng);
@@ -75,11 +84,52 @@ void SteeringTask::Resume(TaskHost& env) {
   // The heading held before the fall may be anywhere after a get-up; a player steers on from
   // where the character stands, and the history stopped while it was down.
   FaceAndTravelAsNow(env);
+  catching_ = -1;
+  if (stand_after_get_up_ > 0 && command_entry_ != stand_entry_) {
+    stand_until_ = episode_time_ + stand_after_get_up_;
+    resume_pending_ = true;
+  }
 }
 
 int SteeringTask::ResumeEntry(const MotionSet& set) const {
-  const int transition = set.Transition(set.Nearest(Command{}), command_entry_);
+  if (standing_after_get_up()) return stand_entry_;
+  const int transition = set.Transition(stand_entry_, command_entry_);
   return transition >= 0 ? transition : command_entry_;
+}
+
+void SteeringTask::Lead(TaskHost& env) {
+  const MotionSet& set = env.motion_set();
+  const int now = env.reference_entry();
+  const int asked = standing_after_get_up() ? stand_entry_ : command_entry_;
+  if (now == asked) return;
+  // A transition leads away only from its `from` clip itself, not from another transition.
+  const int transition = set.entry(now).transition() ? -1 : set.Transition(now, asked);
+  env.SwitchReference(transition >= 0 ? transition : asked);
+}
+
+bool SteeringTask::CatchStep(TaskHost& env) {
+  if (config_.catch_above <= 0) return false;
+  if (catching_ >= 0) {
+    if (episode_time_ < catch_until_ - 1e-9) return false;
+    catching_ = -1;
+    if (!standing_after_get_up()) resume_pending_ = false;  // Lead does what it would
+    Lead(env);  // back to the stand, or to a command given meanwhile
+    return true;
+  }
+  if (env.reference_entry() != stand_entry_ ||
+      (command_entry_ != stand_entry_ && !standing_after_get_up())) {
+    return false;
+  }
+  const double vx = env.data().qvel[0], vy = env.data().qvel[1];
+  if (std::hypot(vx, vy) <= config_.catch_above) return false;
+  // The pelvis's velocity seen from the desired heading, as commands are given.
+  const double c = std::cos(desired_heading_), s = std::sin(desired_heading_);
+  const int entry = env.motion_set().Nearest({c * vx + s * vy, -s * vx + c * vy, 0});
+  if (entry == stand_entry_) return false;
+  catching_ = entry;
+  catch_until_ = episode_time_ + config_.catch_seconds;
+  env.SwitchReference(entry);
+  return true;
 }
 
 void SteeringTask::FaceAndTravelAsNow(const TaskHost& env) {
@@ -104,11 +154,13 @@ Vec3 SteeringTask::TravelVelocity() const {
   return {(newest[0] - oldest[0]) / span, (newest[1] - oldest[1]) / span, 0};
 }
 
-double SteeringTask::SpeedError() const {
+double SteeringTask::SpeedError() const { return SpeedErrorFrom(command_); }
+
+double SteeringTask::SpeedErrorFrom(const Command& command) const {
   const Vec3 v = TravelVelocity();
   const double c = std::cos(desired_heading_), s = std::sin(desired_heading_);
-  return std::hypot(v[0] - (c * command_.forward - s * command_.left),
-                    v[1] - (s * command_.forward + c * command_.left));
+  return std::hypot(v[0] - (c * command.forward - s * command.left),
+                    v[1] - (s * command.forward + c * command.left));
 }
 
 double SteeringTask::HeadingError(const TaskHost& env) const {
@@ -119,7 +171,7 @@ double SteeringTask::Reward(const TaskHost& env, const PoseFeatures& character) 
   // The centre of mass the imitation terms were just scored with joins the travel history.
   com_head_ = (com_head_ + 1) % static_cast<int>(com_history_.size());
   com_history_[com_head_] = character.com;
-  const double v = SpeedError(), h = HeadingError(env);
+  const double v = SpeedErrorFrom(Asked()), h = HeadingError(env);
   const double reward = config_.velocity_weight * std::exp(-config_.velocity_scale * v * v) +
                         config_.heading_weight * std::exp(-config_.heading_scale * h * h);
   error_sums_[0] += SpeedError();
@@ -145,20 +197,25 @@ void SteeringTask::SetCommand(TaskHost& env, int entry) {
 bool SteeringTask::ChangeCommand(TaskHost& env, int entry) {
   if (entry == command_entry_) return false;
   const MotionSet& set = env.motion_set();
-  const int transition = set.Transition(command_entry_, entry);
   command_entry_ = entry;
   command_ = set.entry(entry).command;
-  // While a get-up plays (RecoveryTask), the command waits: the get-up hands back to its clip.
-  if (set.entry(env.reference_entry()).get_up) return true;
-  // A transition leads away only from its `from` clip itself, not from another transition.
-  env.SwitchReference(
-      transition >= 0 && env.reference_entry() == set.entry(transition).from ? transition : entry);
+  // While a get-up plays (RecoveryTask), the character stands after one or takes a catch step,
+  // the command waits.
+  if (set.entry(env.reference_entry()).get_up || standing_after_get_up() || catching_ >= 0) {
+    return true;
+  }
+  Lead(env);
   return true;
 }
 
 bool SteeringTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   episode_time_ += control_dt_;
-  desired_heading_ = WrapAngle(desired_heading_ + command_.turn * control_dt_);
+  desired_heading_ = WrapAngle(desired_heading_ + Asked().turn * control_dt_);
+  if (resume_pending_ && !standing_after_get_up() && catching_ < 0) {
+    resume_pending_ = false;  // the stand after a get-up is over: the command leads
+    Lead(env);
+    return true;
+  }
   const MotionSetEntry& reference = env.motion_set().entry(env.reference_entry());
   if (reference.transition() && env.time() >= env.clip().duration() - 1e-9) {
     env.SwitchReference(reference.to);  // the transition has played: on to its clip
@@ -170,7 +227,7 @@ bool SteeringTask::Advance(TaskHost& env, std::mt19937_64& rng) {
     ChangeCommand(env, RandomCommand(env.motion_set(), rng));
     return true;
   }
-  return false;
+  return CatchStep(env);
 }
 
 namespace {

@@ -37,13 +37,15 @@ class SteeringTask final : public Task {
   int StartEntry(const MotionSet& /*set*/) const override { return command_entry_; }
   bool ends_with_clip() const override { return false; }
   void Start(TaskHost& env, std::mt19937_64& rng) override;
-  // Turns the desired heading; ends a transition that has played, or changes the command when
-  // its time has come.
+  // Turns the desired heading; ends a transition that has played, the stand after a get-up or a
+  // catch step, starts a catch step, or changes the command when its time has come.
   bool Advance(TaskHost& env, std::mt19937_64& rng) override;
-  // After a get-up: the desired heading is where the character faces, the travel history new.
+  // After a get-up: the desired heading is where the character faces, the travel history new;
+  // the character stands for `recovery.stand_after_get_up` before the command leads again.
   void Resume(TaskHost& env) override;
-  // The transition from standing to the command where the set has one (a get-up ends standing,
-  // and the command's clip may be mid-stride), else the command's clip.
+  // Standing while it stands after a get-up; else the transition from standing to the command
+  // where the set has one (a get-up ends standing, and the command's clip may be mid-stride), else
+  // the command's clip.
   int ResumeEntry(const MotionSet& set) const override;
   // The reference faces where the character is told to face.
   std::optional<double> reference_heading() const override { return desired_heading_; }
@@ -57,11 +59,16 @@ class SteeringTask final : public Task {
   // (training changes it at random times). Switches the reference clip as a random change does.
   // Throws std::invalid_argument for an entry that is not a command of the set.
   void SetCommand(TaskHost& env, int entry);
+  // Whether it is standing after a get-up, the command waiting.
+  bool standing_after_get_up() const { return episode_time_ < stand_until_ - 1e-9; }
+  // The clip a catch step imitates now (SteeringConfig::catch_above), or -1.
+  int catching() const { return catching_; }
   // The yaw the character should face (integrates the command's turn), radians.
   double desired_heading() const { return desired_heading_; }
   // Horizontal centre-of-mass velocity averaged over the last velocity_window seconds, world.
   Vec3 TravelVelocity() const;
-  // |TravelVelocity() - commanded velocity| (m/s) and the heading error wrapped to [-pi, pi].
+  // |TravelVelocity() - commanded velocity| (m/s) and the heading error wrapped to [-pi, pi]:
+  // against the command given, also while the character stands after a get-up.
   double SpeedError() const;
   double HeadingError(const TaskHost& env) const;
   // Seconds since the episode started.
@@ -74,9 +81,25 @@ class SteeringTask final : public Task {
   int RandomCommand(const MotionSet& set, std::mt19937_64& rng) const;
   // The desired heading and the travel history from the character's state now.
   void FaceAndTravelAsNow(const TaskHost& env);
+  // What the character is asked to do now: stand while it stands after a get-up, else the command.
+  const Command& Asked() const { return standing_after_get_up() ? standing_ : command_; }
+  double SpeedErrorFrom(const Command& command) const;
+  // The reference onto the clip of what is asked now (the stand after a get-up, else the
+  // command) from wherever it is, through a transition from the clip imitated where the set has
+  // one.
+  void Lead(TaskHost& env);
+  // Starts or ends a catch step; true when it switched the reference.
+  bool CatchStep(TaskHost& env);
 
   SteeringConfig config_;
   double control_dt_;
+  double stand_after_get_up_;  // s
+  int stand_entry_ = 0;        // the set's command nearest to standing still
+  Command standing_;           // its command
+  double stand_until_ = -1;    // episode time the stand after a get-up ends
+  bool resume_pending_ = false;
+  int catching_ = -1;       // the clip of the catch step under way
+  double catch_until_ = 0;  // episode time it ends
   bool random_commands_ = true;
   int command_entry_ = 0;
   Command command_;

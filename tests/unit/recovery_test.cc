@@ -47,7 +47,7 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
                      "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n"
                      "    start_fallen: 0.4\n    start_getting_up: 0.1\n"
                      "    get_up_reward_scale: 0.3\n    early_termination: false\n"
-                     "    early_termination_height: 0.05\n");
+                     "    early_termination_height: 0.05\n    stand_after_get_up: 0.7\n");
   EXPECT_TRUE(c.recovery.enabled());
   EXPECT_EQ(c.recovery.face_down, "motions/deepmimic/humanoid3d_getup_facedown.txt");
   EXPECT_EQ(c.recovery.face_up, "motions/deepmimic/humanoid3d_getup_faceup.txt");
@@ -56,11 +56,13 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
   EXPECT_DOUBLE_EQ(c.recovery.get_up_reward_scale, 0.3);
   EXPECT_FALSE(c.recovery.early_termination);  // not the defaults, which are read below
   EXPECT_DOUBLE_EQ(c.recovery.early_termination_height, 0.05);
+  EXPECT_DOUBLE_EQ(c.recovery.stand_after_get_up, 0.7);
   EXPECT_FALSE(Read("environment:\n  motion: motions/walk.json\n").recovery.enabled());
   const EnvConfig defaults =
       Read(head + "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n");
   EXPECT_TRUE(defaults.recovery.early_termination);
   EXPECT_DOUBLE_EQ(defaults.recovery.early_termination_height, 0.02);
+  EXPECT_DOUBLE_EQ(defaults.recovery.stand_after_get_up, 0.0);
 
   EXPECT_NE(ErrorOf(head).find("face_up"), std::string::npos);
   const std::string both = head + "    face_up: motions/deepmimic/humanoid3d_getup_faceup.txt\n";
@@ -71,6 +73,8 @@ TEST(RecoveryConfigTest, ReadsTheSectionAndNamesWhatIsWrong) {
             std::string::npos);
   EXPECT_NE(ErrorOf(both + "    start_falen: 0.2\n").find("start_falen"), std::string::npos);
   EXPECT_NE(ErrorOf(both + "    early_termination_height: 0\n").find("early_termination_height"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf(both + "    stand_after_get_up: -1\n").find("stand_after_get_up"),
             std::string::npos);
 }
 
@@ -452,6 +456,51 @@ TEST_F(RecoveryEnvTest, AGetUpHandsBackThroughTheTransitionFromStanding) {
     EXPECT_EQ(env->motion_set().entry(env->reference_entry()).name,
               command == "walk" ? "walk_start" : "stand");
   }
+}
+
+// With `stand_after_get_up`, a character told to walk stands that long after its get-up before the
+// walk leads (through the set's transition); meanwhile it is told to stand, and scored against
+// the walk it was told.
+TEST_F(RecoveryEnvTest, AfterAGetUpTheCharacterStandsBeforeTheCommandLeads) {
+  SteerStandAndWalk();
+  MotionSetItem start;
+  start.motion = kAssets + "/motions/walk_start.json";
+  start.name = "walk_start";
+  start.from = "stand";
+  start.to = "walk";
+  config_.steering.motions.push_back(start);
+  config_.recovery.start_getting_up = 1;
+  config_.recovery.stand_after_get_up = 0.5;
+  auto env = Make(3);
+  const int base = ObservationSize(*character_);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  env->Reset(obs.data());
+  ASSERT_TRUE(Recovery(*env).recovering());
+  const int walk = env->motion_set().Find("walk"), stand = env->motion_set().Find("stand");
+  Steering(*env).SetCommand(*env, walk);
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  auto step = [&] {
+    env->ReferenceState(env->time(), qpos.data(), qvel.data());  // played as shown
+    env->SetState(qpos.data(), qvel.data());
+    ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated);
+  };
+  for (int steps = 0; Recovery(*env).recovering() && steps < 200; ++steps) step();
+  ASSERT_FALSE(Recovery(*env).recovering());
+  EXPECT_EQ(env->reference_entry(), stand);
+  EXPECT_TRUE(Steering(*env).standing_after_get_up());
+  EXPECT_EQ(Steering(*env).command_entry(), walk);
+  const Command& standing = env->motion_set().entry(stand).command;
+  EXPECT_NEAR(obs[base], standing.forward, 1e-6);
+  EXPECT_GT(Steering(*env).SpeedError(), 0.5);  // against the walk: standing is not on command
+  int steps = 0;
+  while (env->reference_entry() == stand && steps < 100) {
+    step();
+    ++steps;
+  }
+  EXPECT_EQ(steps, 15);  // 0.5 s at 30 Hz
+  EXPECT_EQ(env->motion_set().entry(env->reference_entry()).name, "walk_start");
+  EXPECT_FALSE(Steering(*env).standing_after_get_up());
+  EXPECT_NEAR(obs[base], env->motion_set().entry(walk).command.forward, 1e-6);
 }
 
 }  // namespace

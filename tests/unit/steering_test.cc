@@ -192,6 +192,24 @@ TEST(SteeringConfigTest, BadMotionSetsNameTheProblem) {
             std::string::npos);
 }
 
+TEST(SteeringConfigTest, CatchStepsAreOffUnlessAskedFor) {
+  const std::string head = "environment:\n  steering:\n    motions:\n      - motion: " + kStand +
+                           "\n      - motion: " + kWalk + "\n";
+  EXPECT_EQ(Read(head).steering.catch_above, 0.0);
+  const EnvConfig c = Read(head + "    catch_steps: {above: 0.6, seconds: 0.4}\n");
+  EXPECT_DOUBLE_EQ(c.steering.catch_above, 0.6);
+  EXPECT_DOUBLE_EQ(c.steering.catch_seconds, 0.4);
+  const EnvConfig defaults = Read(head + "    catch_steps: {}\n");
+  EXPECT_DOUBLE_EQ(defaults.steering.catch_above, 0.5);
+  EXPECT_DOUBLE_EQ(defaults.steering.catch_seconds, 0.7);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "    catch_steps: {above: 0}\n");
+            }).find("catch_steps.above: must be a positive number"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { Read(head + "    catch_steps: {second: 1}\n"); }).find("second"),
+            std::string::npos);
+}
+
 class SteeringEnvTest : public ::testing::Test {
  protected:
   SteeringEnvTest() {
@@ -359,6 +377,84 @@ TEST_F(SteeringEnvTest, PhaseMatchingPicksTheClosestKeyFrame) {
   env->ReferenceState(env->time(), qpos.data(), qvel.data());
   EXPECT_NEAR(qpos[0], env->data().qpos[0], 1e-9);
   EXPECT_NEAR(qpos[1], env->data().qpos[1], 1e-9);
+}
+
+// Told to stand, a pelvis carried faster than `above` switches the reference to the set's clip
+// whose travel is nearest (here the walk, ahead), for `seconds`, then back to the stand; a push
+// toward where no clip travels, or one while walking, changes nothing.
+TEST_F(SteeringEnvTest, APushWhileStandingIsCaughtWithAStepOfTheNearestClip) {
+  config_.steering.catch_above = 0.5;
+  config_.steering.catch_seconds = 0.5;
+  auto env = Make();
+  const int base = ObservationSize(*character_);
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  // One step from the reference's state with the pelvis moving at `speed` along the heading.
+  auto step = [&](double speed) {
+    env->ReferenceState(env->time(), qpos.data(), qvel.data());
+    const double h = Steering(*env).desired_heading();
+    qvel[0] = speed * std::cos(h);
+    qvel[1] = speed * std::sin(h);
+    env->SetState(qpos.data(), qvel.data());
+    env->Step(action.data(), obs.data());
+  };
+  for (const double push : {1.5, -1.5}) {
+    SCOPED_TRACE(push);
+    Steering(*env).SetCommand(*env, 0);
+    env->ResetAtPhase(0.0, obs.data());
+    for (int i = 0; i < 5; ++i) step(0.0);
+    EXPECT_EQ(env->reference_entry(), 0);
+    step(push);
+    if (push < 0) {  // backward: the stand is nearer than the walk
+      EXPECT_EQ(env->reference_entry(), 0);
+      EXPECT_EQ(Steering(*env).catching(), -1);
+      continue;
+    }
+    EXPECT_EQ(env->reference_entry(), 1);
+    EXPECT_EQ(Steering(*env).catching(), 1);
+    // Still told to stand: the command seen and rewarded is the stand's, the clip the walk.
+    EXPECT_NEAR(obs[base], Steering(*env).command().forward, 1e-6);
+    EXPECT_EQ(obs[base + 5], 0.0f);
+    EXPECT_EQ(obs[base + 6], 1.0f);
+    int steps = 0;
+    while (env->reference_entry() == 1 && steps < 100) {
+      step(0.0);
+      ++steps;
+    }
+    EXPECT_EQ(steps, 15);  // 0.5 s at 30 Hz after the step that began it
+    EXPECT_EQ(env->reference_entry(), 0);
+    EXPECT_EQ(Steering(*env).catching(), -1);
+  }
+  // Walking, a push is the walk's to absorb.
+  Steering(*env).SetCommand(*env, 1);
+  step(2.0);
+  EXPECT_EQ(env->reference_entry(), 1);
+  EXPECT_EQ(Steering(*env).catching(), -1);
+}
+
+// A command given during a catch step waits for its end, then leads as usual.
+TEST_F(SteeringEnvTest, ACommandGivenDuringACatchStepWaitsForItsEnd) {
+  config_.steering.catch_above = 0.5;
+  config_.steering.catch_seconds = 0.3;
+  auto env = Make();
+  std::vector<float> obs(env->spec().observation_size), action(env->spec().action_size, 0.0f);
+  std::vector<double> qpos(character_->model()->nq), qvel(character_->model()->nv);
+  Steering(*env).SetCommand(*env, 0);
+  env->ResetAtPhase(0.0, obs.data());
+  env->ReferenceState(env->time(), qpos.data(), qvel.data());
+  const double h = Steering(*env).desired_heading();
+  qvel[0] = 1.5 * std::cos(h);
+  qvel[1] = 1.5 * std::sin(h);
+  env->SetState(qpos.data(), qvel.data());
+  env->Step(action.data(), obs.data());
+  ASSERT_EQ(Steering(*env).catching(), 1);
+  Steering(*env).SetCommand(*env, 0);  // the same command: nothing to wait for
+  Steering(*env).SetCommand(*env, 1);
+  Steering(*env).SetCommand(*env, 0);  // and back: the stand it is told now waits too
+  EXPECT_EQ(env->reference_entry(), 1);
+  for (int i = 0; i < 9; ++i) env->Step(action.data(), obs.data());
+  EXPECT_EQ(Steering(*env).catching(), -1);
+  EXPECT_EQ(env->reference_entry(), 0);
 }
 
 TEST_F(SteeringEnvTest, TransitionsPlayThenHandOver) {
