@@ -79,9 +79,15 @@ std::string SteeringCaption(const sim::ImitationEnv& e) {
     return text;
   }
   const sim::Vec3 v = steering.TravelVelocity();
-  std::snprintf(text, sizeof(text), "\ncommand %s\nspeed %.2f m/s, heading error %.0f deg",
-                e.motion_set().entry(steering.command_entry()).name.c_str(), std::hypot(v[0], v[1]),
-                steering.HeadingError(e) * 180 / M_PI);
+  // What the task holds the command back for: a stand after a get-up, a catch step.
+  std::string held;
+  if (steering.standing_after_get_up()) held = " (standing after the get-up)";
+  if (steering.catching() >= 0) {
+    held += ", catch step: " + e.motion_set().entry(steering.catching()).name;
+  }
+  std::snprintf(text, sizeof(text), "\ncommand %s%s\nspeed %.2f m/s, heading error %.0f deg",
+                e.motion_set().entry(steering.command_entry()).name.c_str(), held.c_str(),
+                std::hypot(v[0], v[1]), steering.HeadingError(e) * 180 / M_PI);
   return text;
 }
 
