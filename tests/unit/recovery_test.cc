@@ -107,6 +107,16 @@ class RecoveryEnvTest : public ::testing::Test {
     }
     config_.motion = config_.steering.motions.front().motion;
   }
+  // The same with the stand-to-walk transition.
+  void SteerStandWalkAndStart() {
+    SteerStandAndWalk();
+    MotionSetItem start;
+    start.motion = kAssets + "/motions/walk_start.json";
+    start.name = "walk_start";
+    start.from = "stand";
+    start.to = "walk";
+    config_.steering.motions.push_back(start);
+  }
   const RecoveryTask& Recovery(const ImitationEnv& env) {
     return dynamic_cast<const RecoveryTask&>(env.task());
   }
@@ -431,13 +441,7 @@ TEST_F(RecoveryEnvTest, SteeringTakesUpFromWhereTheGetUpEnds) {
 // A get-up ends standing: told to walk, it hands back through the set's stand-to-walk transition
 // (the walk's clip may be mid-stride); told to stand, to the stand itself.
 TEST_F(RecoveryEnvTest, AGetUpHandsBackThroughTheTransitionFromStanding) {
-  SteerStandAndWalk();
-  MotionSetItem start;
-  start.motion = kAssets + "/motions/walk_start.json";
-  start.name = "walk_start";
-  start.from = "stand";
-  start.to = "walk";
-  config_.steering.motions.push_back(start);
+  SteerStandWalkAndStart();
   config_.recovery.start_getting_up = 1;
   for (const std::string command : {"walk", "stand"}) {
     SCOPED_TRACE(command);
@@ -462,13 +466,7 @@ TEST_F(RecoveryEnvTest, AGetUpHandsBackThroughTheTransitionFromStanding) {
 // walk leads (through the set's transition); meanwhile it is told to stand, and scored against
 // the walk it was told.
 TEST_F(RecoveryEnvTest, AfterAGetUpTheCharacterStandsBeforeTheCommandLeads) {
-  SteerStandAndWalk();
-  MotionSetItem start;
-  start.motion = kAssets + "/motions/walk_start.json";
-  start.name = "walk_start";
-  start.from = "stand";
-  start.to = "walk";
-  config_.steering.motions.push_back(start);
+  SteerStandWalkAndStart();
   config_.recovery.start_getting_up = 1;
   config_.recovery.stand_after_get_up = 0.5;
   auto env = Make(3);
