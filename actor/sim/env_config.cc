@@ -61,6 +61,13 @@ void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
     if (item.transition() && !item.command_from_clip) {
       i.Fail("command", "a transition's command is its `to` clip's");
     }
+    if (i.Has("weight")) {
+      if (item.transition()) i.Fail("weight", "a transition is never drawn as a command");
+      item.weight = i.Get<double>("weight", 1.0);
+      if (!std::isfinite(item.weight) || item.weight <= 0) {
+        i.Fail("weight", "must be a positive number, got " + std::to_string(item.weight));
+      }
+    }
     i.Finish();
     c->motions.push_back(std::move(item));
   }

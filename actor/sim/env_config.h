@@ -48,6 +48,8 @@ struct MotionSetItem {
   // A transition clip (one that does not loop) plays when the command changes from the item
   // named `from` to the one named `to`, and hands over to `to` when it ends. Both or neither.
   std::string from, to;
+  // How often training draws this clip's command, relative to the others (`weight`, default 1).
+  double weight = 1.0;
   bool transition() const { return !to.empty(); }
 };
 

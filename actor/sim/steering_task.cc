@@ -58,7 +58,13 @@ void SteeringTask::WriteObservation(const TaskHost& env, float* out) const {
 
 int SteeringTask::RandomCommand(const MotionSet& set, std::mt19937_64& rng) const {
   const std::vector<int>& commands = set.commands();
-  return commands[std::uniform_int_distribution<size_t>(0, commands.size() - 1)(rng)];
+  std::vector<double> weights;
+  for (int entry : commands) weights.push_back(config_.motions[entry].weight);
+  // Equal weights draw as they always have, so that recorded seeds replay the same commands.
+  if (std::all_of(weights.begin(), weights.end(), [&](double w) { return w == weights[0]; })) {
+    return commands[std::uniform_int_distribution<size_t>(0, commands.size() - 1)(rng)];
+  }
+  return commands[std::discrete_distribution<size_t>(weights.begin(), weights.end())(rng)];
 }
 
 void SteeringTask::ChooseEpisode(const TaskHost& env, std::mt19937_64& rng) {

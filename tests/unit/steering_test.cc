@@ -192,6 +192,24 @@ TEST(SteeringConfigTest, BadMotionSetsNameTheProblem) {
             std::string::npos);
 }
 
+TEST(SteeringConfigTest, WeightsSayHowOftenTrainingDrawsACommand) {
+  const std::string head = "environment:\n  steering:\n    motions:\n";
+  const EnvConfig c =
+      Read(head + "      - {motion: " + kStand + ", weight: 2.5}\n      - motion: " + kWalk + "\n");
+  EXPECT_DOUBLE_EQ(c.steering.motions[0].weight, 2.5);
+  EXPECT_DOUBLE_EQ(c.steering.motions[1].weight, 1.0);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "      - {motion: " + kWalk + ", weight: 0}\n");
+            }).find("steering.motions[0].weight: must be a positive number"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] {
+              Read(head + "      - motion: " + kStand + "\n      - motion: " + kWalk +
+                   "\n      - {motion: " + kWalk +
+                   ", name: go, from: stand, to: walk, weight: 2}\n");
+            }).find("steering.motions[2].weight: a transition is never drawn"),
+            std::string::npos);
+}
+
 TEST(SteeringConfigTest, CatchStepsAreOffUnlessAskedFor) {
   const std::string head = "environment:\n  steering:\n    motions:\n      - motion: " + kStand +
                            "\n      - motion: " + kWalk + "\n";
@@ -356,6 +374,24 @@ TEST_F(SteeringEnvTest, TrainingSwitchesCommandsAtRandomTimesAndTheReferenceFoll
   // 10 s at one change per 0.5-1 s; each change picks stand or walk at random.
   EXPECT_GE(switches, 4);
   EXPECT_LE(switches, 20);
+}
+
+TEST_F(SteeringEnvTest, EpisodesDrawTheirCommandInProportionToTheWeights) {
+  auto share_standing = [&](double stand_weight) {
+    config_.steering.motions[0].weight = stand_weight;
+    auto env = Make(3);
+    std::vector<float> obs(env->spec().observation_size);
+    int standing = 0;
+    const int episodes = 2000;
+    for (int i = 0; i < episodes; ++i) {
+      env->Reset(obs.data());
+      standing += Steering(*env).command_entry() == 0;
+    }
+    return static_cast<double>(standing) / episodes;
+  };
+  // Binomial standard deviations over 2000 draws: 0.011 and 0.009.
+  EXPECT_NEAR(share_standing(1.0), 0.5, 0.04);
+  EXPECT_NEAR(share_standing(4.0), 0.8, 0.04);
 }
 
 TEST_F(SteeringEnvTest, PhaseMatchingPicksTheClosestKeyFrame) {
