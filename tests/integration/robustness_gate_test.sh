@@ -7,12 +7,14 @@
 # its recovery recorded too ("recovery": {"trials", "within_10"}): as many settled falls, and the
 # share standing within 10 s at most 0.15 below the recorded one; and its knock-downs under
 # command ("knockdowns": {"runs", "share_back_within"}): as many runs of docs/knockdowns.yaml, and
-# the share back on command within 6 s at most 0.15 below the recorded one.
+# the share back on command within 6 s at most 0.15 below the recorded one. A steered policy may
+# have its pushes told to stand recorded too ("protocol_standing", the same floors).
 #   robustness_gate_test.sh RAGDOLL CHECKPOINT RECORDED_JSON
 set -euo pipefail
 ragdoll=$1 checkpoint=$2 recorded=$3
 out=$(mktemp /tmp/ragdoll-gate.XXXXXX.json)
-trap 'rm -f "$out"' EXIT
+standing=$(mktemp /tmp/ragdoll-gate-standing.XXXXXX.json)
+trap 'rm -f "$out" "$standing"' EXIT
 recovery=$(python3 -c 'import json, sys; r = json.load(open(sys.argv[1])).get("recovery")
 print("--recovery %d" % r["trials"] if r else "")' "$recorded")
 knockdowns=$(python3 -c 'import json, sys; k = json.load(open(sys.argv[1])).get("knockdowns")
@@ -21,20 +23,34 @@ print("--commands %s --command-runs %d" % (sys.argv[2], k["runs"]) if k else "")
 # shellcheck disable=SC2086  # $recovery and $knockdowns are empty or several words
 "$ragdoll" eval "$checkpoint" --pushes --push-trials 10 --push-resolution 4 --episodes 4 \
   --push-impulses 0 $recovery $knockdowns --json "$out" > /dev/null
-python3 - "$out" "$recorded" <<'PY'
+echo '{}' > "$standing"
+if python3 -c 'import json, sys; sys.exit("protocol_standing" not in json.load(open(sys.argv[1])))' \
+  "$recorded"; then
+  "$ragdoll" eval "$checkpoint" --pushes --push-command stand --push-trials 10 \
+    --push-resolution 4 --episodes 1 --push-impulses 0 --json "$standing" > /dev/null
+fi
+python3 - "$out" "$recorded" "$standing" <<'PY'
 import json, sys
 got, want = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
 failures = []
+
+
+def check_protocol(result, recorded, told):
+    for d in result["perturbation"]["protocol"]["directions"]:
+        floor = 0.75 * recorded[d["direction"]]
+        print(f"{d['direction']:9s} {d['survived_90']:6.1f} N s ({d['velocity_change']:.2f} m/s)"
+              f"{told}, recorded {recorded[d['direction']]:.1f}, floor {floor:.1f}")
+        if d["survived_90"] < floor:
+            failures.append(f"{d['direction']}{told} {d['survived_90']} N s < {floor} N s")
+
+
 nr = got["normalized_return"]
 print(f"unpushed normalised return {nr:.3f} (recorded {want['normalized_return']:.3f})")
 if nr < want["normalized_return"] - 0.03:
     failures.append(f"normalised return {nr:.3f} < {want['normalized_return'] - 0.03:.3f}")
-for d in got["perturbation"]["protocol"]["directions"]:
-    floor = 0.75 * want["protocol"][d["direction"]]
-    print(f"{d['direction']:9s} {d['survived_90']:6.1f} N s ({d['velocity_change']:.2f} m/s), "
-          f"recorded {want['protocol'][d['direction']]:.1f}, floor {floor:.1f}")
-    if d["survived_90"] < floor:
-        failures.append(f"{d['direction']} {d['survived_90']} N s < {floor} N s")
+check_protocol(got, want["protocol"], "")
+if "protocol_standing" in want:
+    check_protocol(json.load(open(sys.argv[3])), want["protocol_standing"], " told to stand")
 if "recovery" in want:
     r, floor = got["recovery"], want["recovery"]["within_10"] - 0.15
     print(f"recovery  {r['within_10']:.2f} standing within 10 s of {r['trials']} falls, "
