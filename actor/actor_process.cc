@@ -1,7 +1,5 @@
 #include "actor/actor_process.h"
 
-#include <torch/torch.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -53,7 +51,7 @@ struct ActorMetrics {
 
 int RunActor(const sim::EnvConfig& env, const ActorConfig& config, const Endpoints& endpoints,
              const std::atomic<bool>& stop) {
-  at::set_num_threads(config.threads);
+  SetPolicyThreads(config.threads);
   std::fprintf(stderr, "%s: %s\n", config.actor_id.c_str(), blas::Summary(true).c_str());
   RolloutWorker worker(env, config.environments, config.time_horizon, config.seed, config.actor_id);
   MetricsEndpoint endpoint(config.actor_id, config.metrics_bind, config.metrics_port, config.run_id,

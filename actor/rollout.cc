@@ -5,6 +5,7 @@
 
 #include "actor/sim/motion_set.h"
 #include "actor/sim/steering_task.h"
+#include "common/policy.h"
 
 namespace ragdoll::actor {
 namespace {
@@ -26,6 +27,8 @@ v1::EpisodeSummary Summary(const sim::EnvSpec& spec, const sim::EpisodeStats& e)
 }
 
 }  // namespace
+
+void SetPolicyThreads(int threads) { at::set_num_threads(threads); }
 
 RolloutWorker::RolloutWorker(const sim::EnvConfig& config, int environments, int time_horizon,
                              uint64_t seed, std::string actor_id, const TaskFactory& make_task)
@@ -54,8 +57,9 @@ void RolloutWorker::SetPolicy(const v1::PolicySnapshot& snapshot) {
                                 ", the environment has " + std::to_string(spec().observation_size) +
                                 "/" + std::to_string(spec().action_size));
   }
-  if (policy_.is_empty() || !LoadSnapshotWeights(snapshot, policy_)) {
-    policy_ = PolicyFromSnapshot(snapshot);
+  GaussianPolicy current(policy_);
+  if (policy_ == nullptr || !LoadSnapshotWeights(snapshot, current)) {
+    policy_ = PolicyFromSnapshot(snapshot).ptr();
   }
   stats_ = StatsFromSnapshot(snapshot);
   log_std_ = wire::FloatValues(snapshot.log_std());

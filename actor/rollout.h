@@ -11,11 +11,17 @@
 
 #include "actor/sim/env_config.h"
 #include "actor/sim/imitation_env.h"
-#include "common/policy.h"
 #include "common/running_stats.h"
 #include "common/wire.h"
 
+namespace ragdoll {
+class GaussianPolicyImpl;  // common/policy.h: kept out of this header, which then needs no libtorch
+}
+
 namespace ragdoll::actor {
+
+// The threads libtorch runs the policy's forward pass on in this process (an actor uses one).
+void SetPolicyThreads(int threads);
 
 class RolloutWorker {
  public:
@@ -57,7 +63,7 @@ class RolloutWorker {
   std::vector<std::unique_ptr<sim::ImitationEnv>> envs_;
   int time_horizon_;
   std::string actor_id_;
-  GaussianPolicy policy_{nullptr};
+  std::shared_ptr<GaussianPolicyImpl> policy_;
   RunningStats stats_;
   std::vector<float> log_std_;
   int64_t policy_version_ = -1;

@@ -378,7 +378,7 @@ int Export(const ExportOptions& o) {
   const std::string sidecar =
       o.sidecar.empty() ? fs::path(o.onnx).replace_extension(".json").string() : o.sidecar;
 
-  ValueHead value{p.critic, p.value_scale, p.value_offset};
+  ValueHead value{ValueNetwork(p.critic), p.value_scale, p.value_offset};
   const sim::EnvConfig& c = p.experiment.environment;
   std::map<std::string, std::string> metadata = {
       {"ragdoll_version", RAGDOLL_VERSION},

@@ -1,6 +1,5 @@
 #include "cli/play_command.h"
 
-#include <ATen/Parallel.h>
 #include <GLFW/glfw3.h>
 
 #include <algorithm>
@@ -406,7 +405,7 @@ int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
   // A player walks for as long as they like: no time limit cuts the episode short.
   env.max_episode_steps = 1'000'000'000;
   // Real time on one core: the policy's forward pass on this thread only.
-  at::set_num_threads(1);
+  actor::SetPolicyThreads(1);
   PlaySession session(o, policy, env);
   session.Run(stop);
   return 0;

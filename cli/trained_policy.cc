@@ -41,7 +41,7 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   p.snapshot = l.Snapshot();
   p.version = l.version();
   p.samples = l.samples();
-  p.critic = l.critic();
+  p.critic = l.critic().ptr();
   p.critic->eval();
   if (p.experiment.trainer.normalize_value) {
     // As Learner::ValueFromCritic turns the critic's output into returns.

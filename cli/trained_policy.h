@@ -3,11 +3,15 @@
 // critic.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "cli/experiment.h"
-#include "common/policy.h"
 #include "common/wire.h"
+
+namespace ragdoll {
+class ValueNetworkImpl;  // common/policy.h: kept out of this header, which then needs no libtorch
+}
 
 namespace ragdoll::cli {
 
@@ -19,7 +23,7 @@ struct TrainedPolicy {
   int64_t samples = 0;
   // The critic, and how its output becomes a value in return units (the learner's value
   // normalisation): value = critic(normalised observation) * value_scale + value_offset.
-  ValueNetwork critic{nullptr};
+  std::shared_ptr<ValueNetworkImpl> critic;
   double value_scale = 1, value_offset = 0;
 };
 

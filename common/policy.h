@@ -8,16 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "common/network_config.h"
 #include "common/running_stats.h"
 #include "common/wire.h"
 
 namespace ragdoll {
-
-struct NetworkConfig {
-  std::vector<int> hidden_units = {512, 512};
-  std::string activation = "tanh";  // tanh | relu | elu
-  double init_log_std = -1.0;       // initial action noise: std = exp(-1) = 0.37
-};
 
 // An MLP with the given hidden layers and a linear output layer scaled down at initialisation
 // (so that initial outputs are near zero, as in CleanRL's layer_init with std 0.01).

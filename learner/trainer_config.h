@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "common/policy.h"
+#include "common/network_config.h"
 
 namespace ragdoll {
 class ConfigSection;

@@ -18,6 +18,7 @@
 #include "actor/rollout.h"
 #include "actor/sim/observation.h"
 #include "cli/trained_policy.h"
+#include "common/policy.h"
 #include "common/running_stats.h"
 
 namespace {
