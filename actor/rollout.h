@@ -20,7 +20,7 @@ class GaussianPolicyImpl;  // common/policy.h: kept out of this header, which th
 
 namespace ragdoll::actor {
 
-// The threads libtorch runs the policy's forward pass on in this process (libtorch is global).
+// Sets how many threads libtorch runs the policy's forward pass on: for the whole process.
 void SetPolicyThreads(int threads);
 
 class RolloutWorker {
