@@ -19,6 +19,9 @@ namespace {
 // Survived in at least 90 % of the trials: the one criterion of the sweep and the protocol.
 bool Survived(int falls, int trials) { return falls * 10 <= trials; }
 
+// Trials a step that keep the protocol's figures steady across seeds (docs/tools.md).
+constexpr int kSteadyTrials = 100;
+
 void CheckDirection(const std::string& direction, bool random_allowed) {
   double side = 0;
   if ((random_allowed && direction == "random") || SideAngle(direction, &side)) return;
@@ -249,6 +252,14 @@ std::string PushProtocolResult::ToTable() const {
     std::snprintf(line, sizeof(line), "  %-9s   %s%7.1f N s   %10.2f m/s   %8d\n",
                   d.direction.c_str(), d.at_limit ? ">=" : "  ", d.survived_90, d.velocity_change,
                   d.impulses_tried);
+    out << line;
+  }
+  // Near a policy's 90 % point "at least 90 % of 20" is close to a coin toss at each step.
+  if (config.trials < kSteadyTrials) {
+    std::snprintf(line, sizeof(line),
+                  "  %d trials a step: figures can move by tens of N s with --seed; near a target "
+                  "use --push-trials %d (docs/tools.md)\n",
+                  config.trials, kSteadyTrials);
     out << line;
   }
   return out.str();

@@ -116,6 +116,18 @@ TEST_F(PushTest, TheProtocolBisectsToTheLargestImpulseSurvivedPerDirection) {
   EXPECT_NE(r.ToJson().find("\"velocity_change\""), std::string::npos);
 }
 
+// A figure found with few trials a step is a single draw: the table says so, and how to narrow it.
+TEST(PushProtocolTableTest, FewTrialsCarryACaution) {
+  PushProtocolResult r;
+  r.mass = 60;
+  r.directions.push_back({"backward", 80, 80.0 / 60, false, 9});
+  r.config.trials = 20;
+  EXPECT_NE(r.ToTable().find("20 trials a step"), std::string::npos) << r.ToTable();
+  EXPECT_NE(r.ToTable().find("--push-trials 100"), std::string::npos) << r.ToTable();
+  r.config.trials = 100;
+  EXPECT_EQ(r.ToTable().find("trials a step"), std::string::npos) << r.ToTable();
+}
+
 // An untrained policy does not get up: every trial is timed as never, the shares are 0, and the
 // table and JSON say so; each trial names how the character lay.
 TEST_F(PushTest, AnUntrainedPolicyDoesNotGetUpFromAFall) {
