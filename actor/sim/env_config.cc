@@ -141,6 +141,7 @@ void ReadPerturbations(const ConfigSection& parent, PerturbationConfig* c) {
     curriculum.Fail("lower_below", "needs 0 <= lower_below <= raise_above <= 1");
   }
   c->judge = Positive(curriculum, "judge", c->judge);
+  c->per_situation = curriculum.Get<bool>("per_situation", c->per_situation);
   curriculum.Finish();
   s.Finish();
 }

@@ -94,6 +94,10 @@ struct PerturbationConfig {
   int window = 10;
   double raise_above = 0.8, lower_below = 0.5;
   double judge = 2.0;  // s
+  // A level for each situation (pushed body, direction in quarters of the character's heading,
+  // told to stand still or not), and the quarter drawn by its recent share of falls: the hard
+  // situations are pushed at their own edge and more often, not at a level the easy ones set.
+  bool per_situation = false;
   bool enabled() const { return !bodies.empty(); }
 };
 

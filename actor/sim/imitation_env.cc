@@ -27,6 +27,13 @@ constexpr double kGetUpHeightScale = 0.25;
 // Well under a key-frame interval (33 ms at 30 fps), well above rounding.
 constexpr double kVelocityStep = 1e-3;
 
+// A command this slow asks the character to stand still (a captured stand drifts by a few
+// cm/s).
+bool TellsToStandStill(const Command& c) {
+  constexpr double kStill = 0.1;  // m/s, and rad/s for the turn
+  return std::abs(c.forward) < kStill && std::abs(c.left) < kStill && std::abs(c.turn) < kStill;
+}
+
 double Yaw(const double* q) {
   return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
 }
@@ -450,7 +457,10 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     d->ctrl[h.actuator] = std::clamp(target, h.lower, h.upper);
   }
 
-  if (perturbations_) perturbations_->BeforeStep(d, !motions_->entry(reference_entry_).get_up);
+  if (perturbations_) {
+    const MotionSetEntry& entry = motions_->entry(reference_entry_);
+    perturbations_->BeforeStep(d, !entry.get_up, {heading(), TellsToStandStill(entry.command)});
+  }
   // mj_step = mj_step1 (positions, velocities, contacts) + mj_step2 (forces, integration).
   // Running step1 after each integration instead of before keeps every derived quantity in
   // `d` current for the observation and reward at no extra cost (Euler integrator).

@@ -102,6 +102,49 @@ TEST_F(PerturbationsTest, TheLevelFollowsTheCharacterWithinStartAndMax) {
   EXPECT_EQ(p.level(), 20);  // held at start
 }
 
+// Per situation: pushes toward the character's back (its heading turned by pi) that always
+// topple it keep their level at start and come to be drawn most of the time; the other
+// quarters rise to max, and the situations of a character told to stand still keep their own.
+TEST_F(PerturbationsTest, PerSituationTheHardQuarterKeepsItsLevelAndIsDrawnMoreOften) {
+  config_.interval_min = config_.interval_max = 0.1;
+  config_.per_situation = true;
+  Perturbations p(config_, *character_, kDt, 7);
+  const PushSituation walking{/*heading=*/0.7, /*still=*/false};
+  int drawn[Perturbations::kQuarters] = {}, late_backward = 0;
+  for (int push = 0; push < 300; ++push) {
+    for (int before = p.pushes(); p.pushes() == before;) {
+      p.BeforeStep(data_.get(), true, walking);
+      if (p.pushes() == before) p.AfterStep(false);
+    }
+    const double* f =
+        data_->xfrc_applied + 6 * mj_name2id(character_->model(), mjOBJ_BODY, "chest");
+    const double impulse = std::hypot(f[0], f[1]) * 3 * kDt;
+    const double angle = std::remainder(std::atan2(f[1], f[0]) - walking.heading, 2 * M_PI);
+    // Quarters are pi/2 wide around forward (0), left, backward and right.
+    const int quarter = static_cast<int>(std::lround(angle / (M_PI / 2)) + 4) % 4;
+    ++drawn[quarter];
+    const bool backward = quarter == Perturbations::kBackward;
+    if (push >= 200) late_backward += backward ? 1 : 0;
+    const double level = p.level(0, static_cast<Perturbations::Quarter>(quarter), false);
+    EXPECT_GE(impulse, level / 2 - 1e-9);
+    EXPECT_LE(impulse, level + 1e-9);
+    p.AfterStep(backward);
+    if (backward) p.Reset();
+  }
+  for (int q = 0; q < Perturbations::kQuarters; ++q) EXPECT_GT(drawn[q], 0) << q;
+  EXPECT_EQ(p.level(0, Perturbations::kBackward, false), 20);
+  EXPECT_GT(p.fall_share(0, Perturbations::kBackward, false), 0.99);
+  for (auto q : {Perturbations::kForward, Perturbations::kLeft, Perturbations::kRight}) {
+    EXPECT_EQ(p.level(0, q, false), 30) << q;
+    EXPECT_LT(p.fall_share(0, q, false), 0.1) << q;  // from 0.5, by about 0.9 a push
+  }
+  // Weights 1.05 against 3 x (0.05 + a share still settling): about 4 in 5, uniform 1 in 4.
+  EXPECT_GT(late_backward, 70);
+  EXPECT_EQ(p.level(0, Perturbations::kForward, true), 20);
+  EXPECT_EQ(p.fall_share(0, Perturbations::kForward, true), 0.5);
+  EXPECT_DOUBLE_EQ(p.level(), (3 * 30 + 5 * 20) / 8.0);
+}
+
 TEST_F(PerturbationsTest, AnUnknownBodyIsNamed) {
   config_.bodies = {"tail"};
   try {
@@ -163,6 +206,9 @@ TEST(PerturbationConfig, ReadsItsSectionAndNamesBadValues) {
   EXPECT_EQ(c.perturbations.max, 90);
   EXPECT_EQ(c.perturbations.window, 20);
   EXPECT_EQ(c.perturbations.duration_max, 0.2);
+  EXPECT_FALSE(c.perturbations.per_situation);
+  EXPECT_TRUE(
+      read("perturbations:\n  curriculum: {per_situation: true}\n").perturbations.per_situation);
   auto error = [&](const std::string& yaml) -> std::string {
     try {
       read(yaml);
