@@ -76,7 +76,6 @@ class Perturbations {
   int push_steps_left_ = 0;
   int pushed_body_ = -1;
   int judge_steps_left_ = 0;  // of the push being judged; 0: none
-  int judged_ = 0, survived_ = 0;
   int pushes_ = 0;
 };
 
