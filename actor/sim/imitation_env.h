@@ -124,6 +124,8 @@ class ImitationEnv final : public TaskHost {
   const std::vector<std::string>& allowed_contacts() const { return config_.allowed_contacts; }
   double time() const override { return time_; }
   double phase() const { return clip_->Phase(time_); }
+  // The pushes of EnvConfig::perturbations (nullptr without), for tests and tools.
+  const Perturbations* perturbations() const { return perturbations_.get(); }
   int64_t bad_actions() const { return bad_actions_; }
   int64_t unstable_resets() const { return unstable_resets_; }
 

@@ -8,6 +8,7 @@
 
 #include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_io.h"
+#include "actor/sim/rotation.h"
 #include "common/config_section.h"
 
 namespace ragdoll::sim {
@@ -188,6 +189,97 @@ TEST_F(PerturbationsTest, AnEnvironmentWithPushesStartsItsEpisodesAsBeforeAndFal
     EXPECT_EQ(pushed.episode().figures.back(), 150);
   }
   EXPECT_LT(pushed_steps, plain_steps);
+}
+
+// The environment places each push in its situation: the quarter seen from the character's
+// heading (a stand clip turned by 1 rad, so a heading of 0 in its place would put most pushes in
+// the wrong quarter) and the clip's command (a stand: still; a walk: moving). Each push's judgement
+// moves the fall share of that one situation and no other.
+TEST_F(PerturbationsTest, TheEnvironmentPlacesEachPushByTheCharactersHeadingAndCommand) {
+  const Quat turn = AxisAngle({0, 0, 1}, 1.0);
+  auto turned = [&](const MotionClip& clip) {
+    std::vector<Pose> frames;
+    std::vector<double> durations;
+    for (int i = 0; i < clip.num_frames(); ++i) {
+      Pose pose = clip.frame(i);
+      pose.root_position = Rotate(turn, pose.root_position);
+      pose.root_rotation = Multiply(turn, pose.root_rotation);
+      frames.push_back(pose);
+      durations.push_back(clip.frame_duration(i));
+    }
+    return std::make_shared<const MotionClip>(clip.name(), clip.loop(), durations, frames);
+  };
+  EnvConfig env;
+  env.character = kAssets + "/character/humanoid.xml";
+  env.substeps = 10;
+  env.action_mode = ActionMode::kOffset;
+  env.max_episode_steps = 90;
+  config_.interval_min = config_.interval_max = 0.1;
+  config_.per_situation = true;
+  env.perturbations = config_;
+  const int chest = 0;
+  for (const std::string name : {"stand", "walk"}) {
+    SCOPED_TRACE(name);
+    const bool still = name == "stand";
+    ImitationEnv e(character_, turned(LoadMotion(kAssets + "/motions/" + name + ".json")), env, 3);
+    const Perturbations& p = *e.perturbations();
+    auto shares = [&] {
+      std::vector<double> s;
+      for (bool st : {false, true}) {
+        for (int q = 0; q < Perturbations::kQuarters; ++q)
+          s.push_back(p.fall_share(chest, static_cast<Perturbations::Quarter>(q), st));
+      }
+      return s;
+    };
+    std::vector<float> obs(e.spec().observation_size), action(e.spec().action_size, 0.0f);
+    const int body = mj_name2id(character_->model(), mjOBJ_BODY, "chest");
+    // The quarter of the push awaiting its judgement (-1: none), and how many were judged.
+    int pending = -1, judged = 0, turned_quarters = 0;
+    std::vector<double> before = shares();
+    // The situations whose fall share moved since the last look must be among `expected`.
+    auto judged_were = [&](std::vector<int> expected) {
+      const std::vector<double> after = shares();
+      int moved = 0;
+      for (size_t i = 0; i < after.size(); ++i) {
+        if (after[i] == before[i]) continue;
+        ++judged;
+        ++moved;
+        const int offset = still ? Perturbations::kQuarters : 0;
+        bool found = false;
+        for (int q : expected) found = found || (q >= 0 && static_cast<int>(i) == offset + q);
+        EXPECT_TRUE(found) << "situation " << i << " judged";
+      }
+      before = after;
+      return moved;
+    };
+    e.Reset(obs.data());
+    while (judged < 60) {
+      const int pushes = p.pushes();
+      const double heading = e.heading();
+      const StepResult r = e.Step(action.data(), obs.data());
+      if (p.pushes() == pushes) {
+        if (judged_were({pending}) > 0) pending = -1;
+      } else {
+        // A new push judges the one before it, and a fall may judge the new one at once.
+        const double* f = e.data().xfrc_applied + 6 * body;
+        const double world = std::atan2(f[1], f[0]);
+        const double angle = std::remainder(world - heading, 2 * M_PI);
+        const int quarter = static_cast<int>(std::lround(angle / (M_PI / 2)) + 4) % 4;
+        if ((static_cast<int>(std::lround(world / (M_PI / 2)) + 4) % 4) != quarter)
+          ++turned_quarters;
+        const int moved = judged_were({pending, quarter});
+        pending = moved > (pending >= 0 ? 1 : 0) ? -1 : quarter;
+      }
+      if (r.terminated || r.truncated) {
+        e.Reset(obs.data());  // judges a push still pending as survived
+        judged_were({pending});
+        pending = -1;
+      }
+    }
+    // Turned by 1 rad, about 0.64 of the pushes lie in another quarter of the world than of the
+    // character (those within 0.36 of a quarter's width of its clockwise edge stay).
+    EXPECT_GT(turned_quarters, 0.45 * p.pushes());
+  }
 }
 
 TEST(PerturbationConfig, ReadsItsSectionAndNamesBadValues) {
