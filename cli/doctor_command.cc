@@ -254,10 +254,29 @@ int RunDoctor(const std::string& config, bool quick, int train_seconds,
           "ragdoll train %s, %d s: %.0f samples/s after its first update: %.2f of the bound "
           "of its parts on their own cores, %.2f of the shared one\n",
           config.c_str(), train_seconds, trained, trained / separate, trained / bound);
+      // The actor again after the training: on a machine whose speed drifts (virtual machines
+      // do, by a third within an hour) a share against one measurement says little.
+      const double actor_after =
+          bench::MeasureActor(e, e.actor.environments, quick ? 32 : 64, repeats).with_policy;
+      const double separate_after = std::min(absorbed, (cores - 1) * actor_after);
+      const double drift = actor_after / actor.with_policy;
+      std::printf(
+          "actor after the training: %.0f samples/s (%.2f of before): the training ran %.2f of "
+          "the bound measured after it\n",
+          actor_after, drift, trained / separate_after);
+      if (drift < 0.9 || drift > 1.1) {
+        advice.push_back(
+            "this machine's speed changed by " +
+            std::to_string(static_cast<int>(std::lround(100 * std::abs(drift - 1)))) +
+            " % while measuring: the training's share lies between the two bounds' (run the "
+            "doctor again on a quieter machine)");
+      }
       out["train_samples_per_second"] = trained;
       out["train_share_of_bound"] = trained / separate;
+      out["train_share_of_bound_after"] = trained / separate_after;
       out["train_share_of_shared_bound"] = trained / bound;
-      if (trained < 0.85 * separate) {
+      out["actor_samples_per_second_after_training"] = actor_after;
+      if (trained < 0.85 * std::min(separate, separate_after)) {
         advice.push_back(
             "the training reaches less than 0.85 of what its parts do alone: the transport, "
             "the policy lag or the episodes' resets take the rest (`ragdoll train` prints the "
