@@ -8,8 +8,8 @@
 
 #include "actor/sim/imitation_env.h"
 #include "actor/sim/motion_io.h"
-#include "actor/sim/rotation.h"
 #include "common/config_section.h"
+#include "tests/unit/turned_clip.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -196,19 +196,6 @@ TEST_F(PerturbationsTest, AnEnvironmentWithPushesStartsItsEpisodesAsBeforeAndFal
 // the wrong quarter) and the clip's command (a stand: still; a walk: moving). Each push's judgement
 // moves the fall share of that one situation and no other.
 TEST_F(PerturbationsTest, TheEnvironmentPlacesEachPushByTheCharactersHeadingAndCommand) {
-  const Quat turn = AxisAngle({0, 0, 1}, 1.0);
-  auto turned = [&](const MotionClip& clip) {
-    std::vector<Pose> frames;
-    std::vector<double> durations;
-    for (int i = 0; i < clip.num_frames(); ++i) {
-      Pose pose = clip.frame(i);
-      pose.root_position = Rotate(turn, pose.root_position);
-      pose.root_rotation = Multiply(turn, pose.root_rotation);
-      frames.push_back(pose);
-      durations.push_back(clip.frame_duration(i));
-    }
-    return std::make_shared<const MotionClip>(clip.name(), clip.loop(), durations, frames);
-  };
   EnvConfig env;
   env.character = kAssets + "/character/humanoid.xml";
   env.substeps = 10;
@@ -221,7 +208,9 @@ TEST_F(PerturbationsTest, TheEnvironmentPlacesEachPushByTheCharactersHeadingAndC
   for (const std::string name : {"stand", "walk"}) {
     SCOPED_TRACE(name);
     const bool still = name == "stand";
-    ImitationEnv e(character_, turned(LoadMotion(kAssets + "/motions/" + name + ".json")), env, 3);
+    auto clip = std::make_shared<const MotionClip>(
+        TurnedClip(LoadMotion(kAssets + "/motions/" + name + ".json"), 1.0, name));
+    ImitationEnv e(character_, clip, env, 3);
     const Perturbations& p = *e.perturbations();
     auto shares = [&] {
       std::vector<double> s;

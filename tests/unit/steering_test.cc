@@ -15,6 +15,7 @@
 #include "actor/sim/observation.h"
 #include "actor/sim/steering_task.h"
 #include "common/config_section.h"
+#include "tests/unit/turned_clip.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -60,17 +61,7 @@ TEST(MotionSetTest, CommandsAreMeasuredFromTheClips) {
 
   // The walk turned by 90 degrees: it walks to the world's +y but still forward in its own frame.
   MotionClip straight = LoadMotion(kWalk);
-  std::vector<Pose> frames;
-  std::vector<double> durations;
-  const Quat quarter = AxisAngle({0, 0, 1}, M_PI / 2);
-  for (int f = 0; f < straight.num_frames(); ++f) {
-    Pose p = straight.frame(f);
-    p.root_position = Rotate(quarter, p.root_position);
-    p.root_rotation = Multiply(quarter, p.root_rotation);
-    frames.push_back(p);
-    durations.push_back(straight.frame_duration(f));
-  }
-  Command turned = MeasureCommand(MotionClip("turned", true, durations, frames));
+  Command turned = MeasureCommand(TurnedClip(straight, M_PI / 2, "turned"));
   EXPECT_NEAR(turned.forward, 0.9, 1e-6);
   EXPECT_NEAR(turned.left, 0.0, 1e-6);
 
