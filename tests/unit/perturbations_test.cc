@@ -40,6 +40,21 @@ class PerturbationsTest : public ::testing::Test {
     EXPECT_EQ(f[2], 0);
     return std::hypot(f[0], f[1]);
   }
+  // An environment on the character with the PD targets as actions, 3-s episodes, no pushes.
+  static EnvConfig Env() {
+    EnvConfig env;
+    env.character = kAssets + "/character/humanoid.xml";
+    env.substeps = 10;
+    env.action_mode = ActionMode::kOffset;
+    env.max_episode_steps = 90;
+    return env;
+  }
+  // The quarter (Perturbations::Quarter) an angle from forward lies in: pi/2 wide around forward
+  // (0), left, backward and right.
+  static int QuarterOf(double angle) {
+    const double a = std::remainder(angle, 2 * M_PI);
+    return static_cast<int>(std::lround(a / (M_PI / 2)) + 4) % 4;
+  }
   std::shared_ptr<const Character> character_;
   DataPtr data_;
   PerturbationConfig config_;
@@ -120,9 +135,7 @@ TEST_F(PerturbationsTest, PerSituationTheHardQuarterKeepsItsLevelAndIsDrawnMoreO
     const double* f =
         data_->xfrc_applied + 6 * mj_name2id(character_->model(), mjOBJ_BODY, "chest");
     const double impulse = std::hypot(f[0], f[1]) * 3 * kDt;
-    const double angle = std::remainder(std::atan2(f[1], f[0]) - walking.heading, 2 * M_PI);
-    // Quarters are pi/2 wide around forward (0), left, backward and right.
-    const int quarter = static_cast<int>(std::lround(angle / (M_PI / 2)) + 4) % 4;
+    const int quarter = QuarterOf(std::atan2(f[1], f[0]) - walking.heading);
     ++drawn[quarter];
     const bool backward = quarter == Perturbations::kBackward;
     if (push >= 200) late_backward += backward ? 1 : 0;
@@ -160,11 +173,7 @@ TEST_F(PerturbationsTest, AnUnknownBodyIsNamed) {
 // the level as an episode figure, and a character standing by PD tracking falls sooner when
 // pushed hard on the chest.
 TEST_F(PerturbationsTest, AnEnvironmentWithPushesStartsItsEpisodesAsBeforeAndFallsSooner) {
-  EnvConfig env;
-  env.character = kAssets + "/character/humanoid.xml";
-  env.substeps = 10;
-  env.action_mode = ActionMode::kOffset;
-  env.max_episode_steps = 90;
+  EnvConfig env = Env();
   auto clip = std::make_shared<const MotionClip>(LoadMotion(kAssets + "/motions/stand.json"));
   ImitationEnv plain(character_, clip, env, 5);
   config_.start = config_.max = 150;
@@ -196,11 +205,7 @@ TEST_F(PerturbationsTest, AnEnvironmentWithPushesStartsItsEpisodesAsBeforeAndFal
 // the wrong quarter) and the clip's command (a stand: still; a walk: moving). Each push's judgement
 // moves the fall share of that one situation and no other.
 TEST_F(PerturbationsTest, TheEnvironmentPlacesEachPushByTheCharactersHeadingAndCommand) {
-  EnvConfig env;
-  env.character = kAssets + "/character/humanoid.xml";
-  env.substeps = 10;
-  env.action_mode = ActionMode::kOffset;
-  env.max_episode_steps = 90;
+  EnvConfig env = Env();
   config_.interval_min = config_.interval_max = 0.1;
   config_.per_situation = true;
   env.perturbations = config_;
@@ -252,10 +257,8 @@ TEST_F(PerturbationsTest, TheEnvironmentPlacesEachPushByTheCharactersHeadingAndC
         // A new push judges the one before it, and a fall may judge the new one at once.
         const double* f = e.data().xfrc_applied + 6 * body;
         const double world = std::atan2(f[1], f[0]);
-        const double angle = std::remainder(world - heading, 2 * M_PI);
-        const int quarter = static_cast<int>(std::lround(angle / (M_PI / 2)) + 4) % 4;
-        if ((static_cast<int>(std::lround(world / (M_PI / 2)) + 4) % 4) != quarter)
-          ++turned_quarters;
+        const int quarter = QuarterOf(world - heading);
+        if (QuarterOf(world) != quarter) ++turned_quarters;
         const int moved = judged_were({pending, quarter});
         pending = moved > (pending >= 0 ? 1 : 0) ? -1 : quarter;
       }
