@@ -255,7 +255,7 @@ int RunDoctor(const std::string& config, bool quick, int train_seconds,
           "of its parts on their own cores, %.2f of the shared one\n",
           config.c_str(), train_seconds, trained, trained / separate, trained / bound);
       // The actor again after the training: on a machine whose speed drifts (virtual machines
-      // do, by a third within an hour) a share against one measurement says little.
+      // do; docs/benchmarks.md) a share against one measurement says little.
       const double actor_after =
           bench::MeasureActor(e, e.actor.environments, quick ? 32 : 64, repeats).with_policy;
       const double separate_after = std::min(absorbed, (cores - 1) * actor_after);
