@@ -164,10 +164,13 @@ Learner::Rollout Learner::GatherBuffer() const {
     const uint8_t* term = wire::ByteData(s.terminated());
     const uint8_t* trunc = wire::ByteData(s.truncated());
     const float* fin = wire::FloatData(s.final_observations());
+    // Through pointers: indexing a tensor element by element costs a dispatch each.
+    float* terminated = r.terminated.data_ptr<float>() + n * T;
+    float* truncated = r.truncated.data_ptr<float>() + n * T;
     int64_t k = 0;
     for (int64_t t = 0; t < T; ++t) {
-      r.terminated[n][t] = static_cast<float>(term[t]);
-      r.truncated[n][t] = static_cast<float>(trunc[t]);
+      terminated[t] = static_cast<float>(term[t]);
+      truncated[t] = static_cast<float>(trunc[t]);
       if (trunc[t] && t < T - 1) {
         finals.insert(finals.end(), fin + k * O, fin + (k + 1) * O);
         r.final_at.emplace_back(n, t);
