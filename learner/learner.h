@@ -152,6 +152,7 @@ class Learner {
 
   int replicas() const;
   torch::Tensor Normalize(const torch::Tensor& observations) const;
+  torch::Tensor CriticInChunks(const torch::Tensor& observations);
   torch::Tensor ValueFromCritic(const torch::Tensor& output) const;
   torch::Tensor ValueToCritic(const torch::Tensor& value) const;
   // The steps of Update, in order.
