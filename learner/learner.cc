@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "common/config_section.h"
+#include "learner/adam_step.h"
 #include "learner/checkpoint_file.h"
 #include "learner/collectives.h"
 #include "learner/ppo.h"
@@ -281,7 +282,7 @@ bool Learner::MinibatchStep(const Batch& b, const torch::Tensor& mb_inds,
     ++stats.skipped_steps;
     return false;
   }
-  optimizer_->step();
+  AdamStep(*optimizer_);
   if (config_.schedule == TrainerConfig::Schedule::kAdaptive) {
     adaptive_learning_rate_ =
         AdaptiveLearningRate(adaptive_learning_rate_, update_kl, config_.target_kl);
