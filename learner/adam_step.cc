@@ -39,6 +39,11 @@ void AdamStep(torch::optim::Adam& adam) {
     bool plain = o.weight_decay() == 0 && !o.amsgrad();
     for (const auto& p : group.params()) {
       plain = plain && Plain(p) && (!p.grad().defined() || Plain(p.grad()));
+      const auto found = adam.state().find(c10::guts::to_string(p.unsafeGetTensorImpl()));
+      if (plain && found != adam.state().end()) {
+        const auto& state = static_cast<const torch::optim::AdamParamState&>(*found->second);
+        plain = Plain(state.exp_avg()) && Plain(state.exp_avg_sq());
+      }
     }
     if (!plain) {
       adam.step();
@@ -62,10 +67,6 @@ void AdamStep(torch::optim::Adam& adam) {
         found = states.emplace(key, std::move(state)).first;
       }
       auto& state = static_cast<torch::optim::AdamParamState&>(*found->second);
-      if (!Plain(state.exp_avg()) || !Plain(state.exp_avg_sq())) {
-        state.exp_avg(state.exp_avg().to(torch::kFloat32).contiguous());
-        state.exp_avg_sq(state.exp_avg_sq().to(torch::kFloat32).contiguous());
-      }
       state.step(state.step() + 1);
       const double bias_correction1 = 1 - std::pow(beta1, static_cast<double>(state.step()));
       const double bias_correction2 = 1 - std::pow(beta2, static_cast<double>(state.step()));

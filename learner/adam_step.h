@@ -8,7 +8,8 @@
 namespace ragdoll::learner {
 
 // Steps `adam` as adam.step() would. Falls back to adam.step() when an option the pass does not
-// do is set (weight decay, AMSGrad) or a parameter or gradient is not contiguous float32.
+// do is set (weight decay, AMSGrad) or a parameter, its gradient or its state is not contiguous
+// float32.
 void AdamStep(torch::optim::Adam& adam);
 
 }  // namespace ragdoll::learner

@@ -28,11 +28,10 @@ void SetGradients(std::vector<torch::Tensor>& params, int step) {
   }
 }
 
-// Steps [from, to): the same gradients to both, ours by AdamStep, theirs by libtorch's step.
+// `steps` steps with the same gradients to both, ours by AdamStep, theirs by libtorch's step.
 void StepBoth(std::vector<torch::Tensor>& ours, torch::optim::Adam& our_adam,
-              std::vector<torch::Tensor>& theirs, torch::optim::Adam& their_adam, int from,
-              int to) {
-  for (int step = from; step < to; ++step) {
+              std::vector<torch::Tensor>& theirs, torch::optim::Adam& their_adam, int steps) {
+  for (int step = 0; step < steps; ++step) {
     SetGradients(ours, step);
     SetGradients(theirs, step);
     AdamStep(our_adam);
@@ -44,7 +43,7 @@ TEST(AdamStepTest, StepsAsLibtorchsAdamAndKeepsItsState) {
   std::vector<torch::Tensor> ours = Parameters(), theirs = Clone(ours);
   const auto options = torch::optim::AdamOptions(3e-3).eps(1e-8);
   torch::optim::Adam our_adam(ours, options), their_adam(theirs, options);
-  StepBoth(ours, our_adam, theirs, their_adam, 0, 25);
+  StepBoth(ours, our_adam, theirs, their_adam, 25);
   for (size_t i = 0; i < ours.size(); ++i) {
     // The same arithmetic in another order: float rounding apart, over 25 steps.
     EXPECT_TRUE(torch::allclose(ours[i], theirs[i], 1e-5, 1e-6)) << "parameter " << i;
@@ -89,7 +88,7 @@ TEST(AdamStepTest, LeavesWeightDecayAndAmsgradToLibtorch) {
                               torch::optim::AdamOptions(1e-3).amsgrad(true)}) {
     std::vector<torch::Tensor> ours = Parameters(), theirs = Clone(ours);
     torch::optim::Adam our_adam(ours, options), their_adam(theirs, options);
-    StepBoth(ours, our_adam, theirs, their_adam, 0, 3);
+    StepBoth(ours, our_adam, theirs, their_adam, 3);
     for (size_t i = 0; i < ours.size(); ++i) EXPECT_TRUE(ours[i].equal(theirs[i]));
   }
 }
