@@ -154,18 +154,27 @@ ActorFigures MeasureActor(const cli::Experiment& e, int K, int steps, int repeat
 }
 
 void FillWithSyntheticSegments(learner::Learner& l, int T, int O, int A, std::mt19937& rng) {
+  torch::NoGradGuard no_grad;
   std::normal_distribution<float> g(0, 1);
-  std::vector<float> obs((T + 1) * O), act(T * A), logp(T, -30.0f), rew(T);
+  std::vector<float> obs((T + 1) * O), normalized(T * O), noise(T * A), rew(T);
   std::vector<uint8_t> flags(T, 0);
   while (!l.Ready()) {
     for (float& x : obs) x = g(rng);
-    for (float& x : act) x = 0.3f * g(rng);
+    for (float& x : noise) x = g(rng);
     for (float& x : rew) x = 0.5f + 0.1f * g(rng);
+    // Actions sampled from the learner's own policy, as an actor holding its latest weights
+    // would: their importance ratios start near 1.
+    l.stats().Normalize(obs.data(), T, normalized.data());
+    torch::Tensor x = torch::from_blob(normalized.data(), {T, O});
+    torch::Tensor act = (l.policy()->forward(x) +
+                         l.policy()->log_std.exp() * torch::from_blob(noise.data(), {T, A}))
+                            .contiguous();
+    torch::Tensor logp = l.policy()->Evaluate(x, act).log_prob.contiguous();
     v1::TrajectorySegment s;
     s.set_policy_version(l.version());
     *s.mutable_observations() = wire::FloatTensor(obs.data(), {T + 1, O});
-    *s.mutable_actions() = wire::FloatTensor(act.data(), {T, A});
-    *s.mutable_log_probs() = wire::FloatTensor(logp.data(), {T});
+    *s.mutable_actions() = wire::FloatTensor(act.data_ptr<float>(), {T, A});
+    *s.mutable_log_probs() = wire::FloatTensor(logp.data_ptr<float>(), {T});
     *s.mutable_rewards() = wire::FloatTensor(rew.data(), {T});
     *s.mutable_terminated() = wire::ByteTensor(flags.data(), {T});
     *s.mutable_truncated() = wire::ByteTensor(flags.data(), {T});

@@ -61,11 +61,13 @@ struct LearnerFigures {
 };
 
 // Fills the learner's buffer (its share, for a replica) with synthetic segments of the right
-// sizes: an update's cost does not depend on the values.
+// sizes, their actions and log-probabilities from the learner's policy as an actor's would be.
+// Foreign log-probabilities would not do: as the policy drifts from them, the importance ratios
+// and the gradients through them underflow to denormal floats, and on Intel CPUs the matrix
+// products then ran up to 8 times slower (docs/benchmarks.md).
 void FillWithSyntheticSegments(learner::Learner& l, int T, int O, int A, std::mt19937& rng);
 
-// The update on a buffer of synthetic segments (its cost does not depend on the values), at the
-// intra-op thread count already set.
+// The update on a buffer of synthetic segments, at the intra-op thread count already set.
 LearnerFigures MeasureLearner(const cli::Experiment& e, int repeats);
 
 }  // namespace ragdoll::bench

@@ -4,17 +4,18 @@
 // gathering and bookkeeping cost on top.
 //   ragdoll-bench-learner CONFIG [--repeats R] [--threads T] [--replicas N]
 // With --replicas N, the same update also runs on a group of N replica processes (c10d Gloo on
-// loopback, replica i pinned to core i, each on its share of the buffer), after one replica
-// pinned to core 0: the group's samples/s against one replica's, with nothing else running. That
-// is the learner's own scaling; ragdoll-bench-cluster measures it with the broker and actors.
-// The group also times its gradient all-reduce alone, against the share of a gradient step it
-// would cost each replica.
+// loopback, replica i pinned to core i, each on its share of the buffer), each of its updates
+// after one of a lone replica on core 0: the group's samples/s against one replica's, round by
+// round, with nothing else running. That is the learner's own scaling; ragdoll-bench-cluster
+// measures it with the broker and actors. The group also times its gradient all-reduce alone,
+// against the share of a gradient step it would cost each replica.
 #include <torch/torch.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -44,8 +45,11 @@ void PinToCore(int core) {
   sched_setaffinity(0, sizeof(set), &set);
 }
 
-// One replica of a group: `repeats` updates after one to warm up; rank 0 prints the median of
-// the group's samples per second per epoch on stdout.
+// One replica of a group: `repeats` rounds after one to warm up. In each, rank 0 first runs the
+// same update alone (a lone learner on the whole buffer, on the same core, the other replicas
+// waiting), then the group runs its update: the two are timed seconds apart, so the machine's
+// drift (on these shared machines, tens of per cent over minutes) cancels in each round's ratio.
+// Rank 0 prints the medians on stdout.
 int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int repeats) {
   PinToCore(rank);
   at::set_num_threads(1);
@@ -59,13 +63,28 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
   learner::ReplicaGroup group(gc);
   learner::Learner l(c, O, A, &group);
   l.SyncFromRankZero();
+  std::unique_ptr<learner::Learner> alone;
+  if (rank == 0) alone = std::make_unique<learner::Learner>(c, O, A);
   std::mt19937 rng(static_cast<unsigned>(1 + rank));
-  std::vector<double> rates;
+  const auto rate = [&](const learner::UpdateStats& u) {
+    return static_cast<double>(u.samples) * c.num_epoch / u.seconds;
+  };
+  std::vector<double> rates, alone_rates, ratios;
   for (int r = 0; r <= repeats; ++r) {
+    double alone_rate = 0;
+    if (alone) {
+      bench::FillWithSyntheticSegments(*alone, c.time_horizon, O, A, rng);
+      alone_rate = rate(alone->Update());
+    }
+    torch::Tensor done = torch::zeros({1});
+    group.Sum(done);  // the others wait here while rank 0 updates alone
     bench::FillWithSyntheticSegments(l, c.time_horizon, O, A, rng);
     l.AgreeToUpdate(false);
-    learner::UpdateStats u = l.Update();
-    if (r > 0) rates.push_back(static_cast<double>(u.samples) * c.num_epoch / u.seconds);
+    const double group_rate = rate(l.Update());
+    if (r == 0) continue;
+    rates.push_back(group_rate);
+    alone_rates.push_back(alone_rate);
+    ratios.push_back(group_rate / std::max(alone_rate, 1e-9));
   }
   // The gradient all-reduce on its own, as each gradient step above makes it: every trained
   // parameter and the KL slot, in float32.
@@ -77,13 +96,19 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
     group.Sum(gradients);
     if (i >= 10) times.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
   }
-  if (rank == 0) std::printf("%.1f %.6f %lld\n", Median(rates), Median(times), (long long)floats);
+  if (rank == 0) {
+    std::printf("%.1f %.1f %.4f %.4f %.4f %.6f %lld\n", Median(rates), Median(alone_rates),
+                Median(ratios), *std::min_element(ratios.begin(), ratios.end()),
+                *std::max_element(ratios.begin(), ratios.end()), Median(times), (long long)floats);
+  }
   return 0;
 }
 
 struct GroupFigures {
-  double samples_per_second;  // the group's, per epoch
-  double allreduce_seconds;   // one gradient all-reduce alone (median)
+  double samples_per_second;           // the group's, per epoch
+  double alone;                        // one replica's, alone on core 0 in the same rounds
+  double ratio, ratio_min, ratio_max;  // of the group's to one replica's, round by round
+  double allreduce_seconds;            // one gradient all-reduce alone (median)
   long long gradient_floats;
 };
 
@@ -125,8 +150,9 @@ GroupFigures RunGroup(const std::string& config, int replicas, int port, int rep
     ok = ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
   }
   GroupFigures f{};
-  if (!ok || std::sscanf(text.c_str(), "%lf %lf %lld", &f.samples_per_second, &f.allreduce_seconds,
-                         &f.gradient_floats) != 3) {
+  if (!ok || std::sscanf(text.c_str(), "%lf %lf %lf %lf %lf %lf %lld", &f.samples_per_second,
+                         &f.alone, &f.ratio, &f.ratio_min, &f.ratio_max, &f.allreduce_seconds,
+                         &f.gradient_floats) != 7) {
     throw std::runtime_error("a learner replica failed");
   }
   return f;
@@ -174,14 +200,17 @@ int main(int argc, char** argv) {
     std::printf("  PPO update (per epoch)     %8.0f samples/s  ratio %.3f\n", f.update, f.ratio);
     if (replicas > 1) {
       GroupFigures g = RunGroup(config, replicas, port, repeats);
-      const double group = g.samples_per_second;
       std::printf(
-          "  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (%.2f per "
-          "replica)\n",
-          replicas, group, group / f.update, group / f.update / replicas);
+          "  1 replica alone, core 0      %8.0f samples/s  (round by round with the group)\n",
+          g.alone);
+      std::printf(
+          "  %d replicas, 1 core each     %8.0f samples/s  %.2f x one replica (median of %d "
+          "rounds, %.2f-%.2f; %.2f per replica)\n",
+          replicas, g.samples_per_second, g.ratio, repeats, g.ratio_min, g.ratio_max,
+          g.ratio / replicas);
       // What one replica's share of a gradient step (1/N of the minibatch) takes a single
       // learner, overheads of the update included.
-      const double step = static_cast<double>(mb) / replicas / f.update;
+      const double step = static_cast<double>(mb) / replicas / g.alone;
       std::printf(
           "  gradient all-reduce alone    %8.2f ms for %lld floats; 1/%d of a minibatch takes "
           "one learner %.1f ms (%.0f %%)\n",
