@@ -63,8 +63,8 @@ struct LearnerFigures {
 // Fills the learner's buffer (its share, for a replica) with synthetic segments of the right
 // sizes, their actions and log-probabilities from the learner's policy as an actor's would be.
 // Foreign log-probabilities would not do: as the policy drifts from them, the importance ratios
-// and the gradients through them underflow to denormal floats, and on Intel CPUs the matrix
-// products then ran up to 8 times slower (docs/benchmarks.md).
+// and the gradients through them underflow to denormal floats, which Intel CPUs multiply far more
+// slowly (docs/benchmarks.md has the figures).
 void FillWithSyntheticSegments(learner::Learner& l, int T, int O, int A, std::mt19937& rng);
 
 // The update on a buffer of synthetic segments, at the intra-op thread count already set.
