@@ -81,10 +81,10 @@ int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int r
     bench::FillWithSyntheticSegments(l, c.time_horizon, O, A, rng);
     l.AgreeToUpdate(false);
     const double group_rate = rate(l.Update());
-    if (r == 0) continue;
+    if (r == 0 || !alone) continue;  // rank 0 alone keeps the figures
     rates.push_back(group_rate);
     alone_rates.push_back(alone_rate);
-    ratios.push_back(group_rate / std::max(alone_rate, 1e-9));
+    ratios.push_back(group_rate / alone_rate);
   }
   // The gradient all-reduce on its own, as each gradient step above makes it: every trained
   // parameter and the KL slot, in float32.
