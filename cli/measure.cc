@@ -12,6 +12,7 @@
 #include "common/median.h"
 #include "common/wire.h"
 #include "learner/learner.h"
+#include "learner/raw_training.h"
 
 namespace ragdoll::bench {
 namespace {
@@ -191,33 +192,18 @@ LearnerFigures MeasureLearner(const cli::Experiment& e, int repeats) {
   learner::Learner l(c, O, A);
   std::mt19937 rng(1);
 
-  // Raw libtorch on networks of the same shapes.
-  GaussianPolicy policy(O, A, c.network);
-  ValueNetwork critic(O, c.network);
-  std::vector<torch::Tensor> params = policy->parameters();
-  for (const auto& p : critic->parameters()) params.push_back(p);
-  torch::optim::Adam adam(params, torch::optim::AdamOptions(c.learning_rate));
   LearnerFigures f;
   f.buffer = (c.buffer_size + T - 1) / T * T;
   f.minibatch = std::min(c.batch_size, f.buffer);
   const int64_t steps = c.num_epoch * (f.buffer / f.minibatch);
-  torch::Tensor x = torch::randn({f.minibatch, O}), ya = torch::randn({f.minibatch, A}),
-                yv = torch::randn({f.minibatch});
+  learner::RawTraining raw_training(c, O, A, f.minibatch);
 
   std::vector<double> update, raw, ratio;
   for (int r = 0; r < repeats; ++r) {
     FillWithSyntheticSegments(l, T, O, A, rng);
     learner::UpdateStats u = l.Update();
     const double update_rate = static_cast<double>(u.samples) * c.num_epoch / u.seconds;
-    const auto t0 = Clock::now();
-    for (int64_t s = 0; s < steps; ++s) {
-      adam.zero_grad();
-      torch::Tensor loss =
-          (policy->forward(x) - ya).pow(2).mean() + (critic->forward(x) - yv).pow(2).mean();
-      loss.backward();
-      adam.step();
-    }
-    const double raw_rate = static_cast<double>(steps * f.minibatch) / Since(t0);
+    const double raw_rate = raw_training.Rate(steps);
     update.push_back(update_rate);
     raw.push_back(raw_rate);
     ratio.push_back(update_rate / raw_rate);

@@ -5,6 +5,7 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <functional>
 #include <memory>
 #include <string>
@@ -127,6 +128,8 @@ class Learner {
   // How many numbers the optimizer trains: what each gradient step's all-reduce carries (with
   // one more, the step's KL) when there are replicas.
   int64_t trained_parameters() const;
+  // The samples of one of this replica's gradient steps when its buffer is full.
+  int64_t minibatch_size() const { return std::min(local_batch_size_, local_buffer_size_); }
   const RunningStats& stats() const { return stats_; }
   const RunningStats& return_stats() const { return return_stats_; }
   const EpisodeStatsSum& episodes() const { return episodes_; }

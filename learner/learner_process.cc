@@ -23,6 +23,7 @@
 #include "common/wire.h"
 #include "learner/checkpoint_store.h"
 #include "learner/learner.h"
+#include "learner/raw_training.h"
 #include "learner/replica_group.h"
 #include "learner/training_log.h"
 
@@ -337,8 +338,6 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
                const Endpoints& endpoints, const std::atomic<bool>& stop) {
   at::set_num_threads(trainer.threads);
   const double sgemm_gflops = blas::SgemmGflops();
-  std::fprintf(stderr, "learner: %s; sgemm %.0f GFLOP/s on one thread\n",
-               blas::Summary(false).c_str(), sgemm_gflops);
   // Past a file size limit (RLIMIT_FSIZE) a write fails with EFBIG instead of killing us: a
   // checkpoint that does not fit is a logged failure, not a crash.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -359,7 +358,16 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
 
   MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
   TrainingLog log(endpoint, config.run_dir, config.label, leader, learner, config.reward_terms);
-  log.CompareUpdatesWith(sgemm_gflops);
+  // What this network's gradient steps run at on one thread with nothing else in the way: a
+  // small network runs far below the sgemm figure, so that figure alone cannot judge the update.
+  at::set_num_threads(1);
+  RawTraining raw(trainer, config.observation_size, config.action_size, learner.minibatch_size());
+  const double raw_gflops = 6e-9 * static_cast<double>(raw.parameters()) * raw.BestRate(20, 0.3);
+  at::set_num_threads(trainer.threads);
+  std::fprintf(stderr,
+               "learner: %s; sgemm %.0f GFLOP/s on one thread, this network's fwd+bwd+Adam %.0f\n",
+               blas::Summary(false).c_str(), sgemm_gflops, raw_gflops);
+  log.CompareUpdatesWith(sgemm_gflops, raw_gflops);
   // A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
   // the earlier ones stay, none is deleted for it, and training goes on.
   auto save = [&](const char* why) {

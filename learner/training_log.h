@@ -47,9 +47,10 @@ class TrainingLog {
   void Updated(const Learner& learner, const UpdateStats& u, int64_t max_steps);
   void CheckpointWritten(const char* why, const std::string& path);
   void CheckpointFailed(const char* why, const std::string& error);
-  // The one-thread sgemm rate measured at start-up: updates whose products run far below it per
-  // CPU-second are warned of (a generic BLAS kernel, oversubscribed threads).
-  void CompareUpdatesWith(double sgemm_gflops);
+  // The one-thread figures measured at start-up: the BLAS's sgemm (published) and the same
+  // networks' plain fwd+bwd+Adam; updates that run far below the latter per CPU-second are warned
+  // of (oversubscribed threads, a busy machine).
+  void CompareUpdatesWith(double sgemm_gflops, double raw_gflops);
 
  private:
   using Clock = std::chrono::steady_clock;
@@ -64,8 +65,9 @@ class TrainingLog {
   int64_t start_samples_, start_stale_;
   int64_t rejected_total_ = 0;
   double idle_seconds_ = 0;  // waiting for segments since the last update
-  double sgemm_gflops_ = 0;
-  int64_t slow_updates_ = 0;  // in a row, below kSlowUpdate of sgemm_gflops_
+  double raw_gflops_ = 0;
+  int64_t updates_ = 0;       // judged since start-up
+  int64_t slow_updates_ = 0;  // in a row, below kSlowUpdate of raw_gflops_
 };
 
 }  // namespace ragdoll::learner

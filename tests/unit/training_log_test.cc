@@ -3,12 +3,15 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "learner/raw_training.h"
 #include "learner/trainer_config.h"
 
 namespace ragdoll::learner {
@@ -64,6 +67,61 @@ TEST(TrainingLog, TheLeaderWritesTheCsvHeaderOnceAndARowPerUpdate) {
     EXPECT_EQ(row[10], "0.25");  // policy_loss
   }
   fs::remove_all(run);
+}
+
+// The learner warns when its updates run far below the same networks' plain fwd+bwd+Adam measured
+// at start-up: from the third update it sees (the first ones warm caches), once for a run of slow
+// updates, again after a fast one.
+TEST(TrainingLog, WarnsOfUpdatesFarBelowTheNetworksOwnRate) {
+  const fs::path run =
+      fs::temp_directory_path() / ("ragdoll_training_log_warn_" + std::to_string(::getpid()));
+  fs::remove_all(run);
+  fs::create_directories(run);
+  TrainerConfig config;
+  config.network.hidden_units = {4};
+  Learner learner(config, 3, 2);
+  MetricsEndpoint endpoint("learner", "127.0.0.1", -1, "test");
+  TrainingLog log(endpoint, run.string(), "test", true, learner, /*reward_terms=*/0);
+  log.CompareUpdatesWith(/*sgemm_gflops=*/200, /*raw_gflops=*/40);
+  auto warnings_after = [&](std::vector<double> gflops) {
+    ::testing::internal::CaptureStderr();
+    for (double g : gflops) {
+      UpdateStats u;
+      u.samples = 32;
+      u.cpu_seconds = 2;
+      u.gflop = g * u.cpu_seconds;
+      log.Updated(learner, u, 1000);
+    }
+    const std::string err = ::testing::internal::GetCapturedStderr();
+    int n = 0;
+    for (size_t at = err.find("warning"); at != std::string::npos; at = err.find("warning", at + 1))
+      ++n;
+    return std::make_pair(n, err);
+  };
+  // Two slow updates first: not judged yet.
+  EXPECT_EQ(warnings_after({5, 5}).first, 0);
+  // 9.9 is below a quarter of 40, 10.1 is not; slow ones in a row warn once.
+  const auto [slow, text] = warnings_after({9.9, 9.9, 9.9});
+  EXPECT_EQ(slow, 1);
+  EXPECT_NE(text.find("9.9 GFLOP/s per CPU-second, 0.25 of the same networks' plain"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(warnings_after({10.1, 40}).first, 0);
+  EXPECT_EQ(warnings_after({8}).first, 1);  // slow again after fast ones
+  fs::remove_all(run);
+}
+
+// The start-up baseline trains the trainer's own networks: the same parameters as the learner's,
+// and a finite rate.
+TEST(RawTraining, TrainsTheLearnersNetworks) {
+  TrainerConfig config;
+  config.network.hidden_units = {16, 8};
+  Learner learner(config, 5, 3);
+  RawTraining raw(config, 5, 3, learner.minibatch_size());
+  EXPECT_EQ(raw.parameters(), learner.trained_parameters());
+  const double rate = raw.BestRate(3, 1.0);
+  EXPECT_TRUE(std::isfinite(rate));
+  EXPECT_GT(rate, 0);
 }
 
 }  // namespace
