@@ -11,7 +11,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // An update whose products run below this share of the same network's plain fwd+bwd+Adam (one
-// thread, at start-up) per CPU-second is far below the machine: docs/benchmarks.md has the ratios.
+// thread, at start-up) per CPU-second is far below the machine: docs/tools.md has the ratios.
 constexpr double kSlowUpdate = 0.25;
 constexpr int64_t kSlowWarnEvery = 50;  // updates between repeated warnings
 
