@@ -99,6 +99,15 @@ for name in $wanted; do
 done
 [ $missing = 0 ] || fail "the dashboard queries metrics nobody exports"
 echo "dashboard: all $(wc -w <<< "$wanted") metrics it queries are exported"
+# The learner's update against its own limit, by the dashboard's own query: both gauges are there
+# and their labels match.
+limit_query=$(jq -r '.panels[] | select(.title == "Learner update against its limit") |
+  .targets[0].expr' "$dashboard")
+[ -n "$limit_query" ] || fail "no 'Learner update against its limit' panel in $dashboard"
+share=$(value "${limit_query//\$run/$run}")
+echo "learner update against its limit: $share"
+awk -v s="${share:-0}" 'BEGIN { exit !(s > 0 && s < 10) }' ||
+  fail "the update's share of its limit is '$share' ($limit_query)"
 
 # Stop cleanly: the training writes its final checkpoint.
 kill -INT "${pids[1]}"; wait "${pids[1]}"
