@@ -19,6 +19,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A fresh folder for one test's run, removed when the test ends, passed or not.
+struct ScratchRun {
+  explicit ScratchRun(const std::string& name)
+      : path(fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()))) {
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~ScratchRun() { fs::remove_all(path); }
+  const fs::path path;
+};
+
 std::vector<std::string> Lines(const fs::path& path) {
   std::ifstream in(path);
   std::vector<std::string> lines;
@@ -37,10 +48,8 @@ std::vector<std::string> Fields(const std::string& line) {
 // run (the learner's own columns, then the episode figures by name), and every row has a value
 // for each column.
 TEST(TrainingLog, TheLeaderWritesTheCsvHeaderOnceAndARowPerUpdate) {
-  const fs::path run =
-      fs::temp_directory_path() / ("ragdoll_training_log_test_" + std::to_string(::getpid()));
-  fs::remove_all(run);
-  fs::create_directories(run);
+  const ScratchRun scratch("ragdoll_training_log_test");
+  const fs::path& run = scratch.path;
   TrainerConfig config;
   config.network.hidden_units = {4};
   Learner learner(config, 3, 2);
@@ -66,22 +75,18 @@ TEST(TrainingLog, TheLeaderWritesTheCsvHeaderOnceAndARowPerUpdate) {
     ASSERT_EQ(row.size(), columns.size());
     EXPECT_EQ(row[10], "0.25");  // policy_loss
   }
-  fs::remove_all(run);
 }
 
 // The learner warns when its updates run far below the same networks' plain fwd+bwd+Adam measured
 // at start-up: from the third update it sees (the first ones warm caches), once for a run of slow
 // updates, again after a fast one.
 TEST(TrainingLog, WarnsOfUpdatesFarBelowTheNetworksOwnRate) {
-  const fs::path run =
-      fs::temp_directory_path() / ("ragdoll_training_log_warn_" + std::to_string(::getpid()));
-  fs::remove_all(run);
-  fs::create_directories(run);
+  const ScratchRun run("ragdoll_training_log_warn");
   TrainerConfig config;
   config.network.hidden_units = {4};
   Learner learner(config, 3, 2);
   MetricsEndpoint endpoint("learner", "127.0.0.1", -1, "test");
-  TrainingLog log(endpoint, run.string(), "test", true, learner, /*reward_terms=*/0);
+  TrainingLog log(endpoint, run.path.string(), "test", true, learner, /*reward_terms=*/0);
   log.CompareUpdatesWith(/*sgemm_gflops=*/200, /*raw_gflops=*/40);
   auto warnings_after = [&](std::vector<double> gflops) {
     ::testing::internal::CaptureStderr();
@@ -108,7 +113,6 @@ TEST(TrainingLog, WarnsOfUpdatesFarBelowTheNetworksOwnRate) {
       << text;
   EXPECT_EQ(warnings_after({10.1, 40}).first, 0);
   EXPECT_EQ(warnings_after({8}).first, 1);  // slow again after fast ones
-  fs::remove_all(run);
 }
 
 // The start-up baseline trains the trainer's own networks: the same parameters as the learner's,
