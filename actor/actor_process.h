@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include "actor/sim/env_config.h"
 #include "common/endpoints.h"
+#include "sim/env_config.h"
 
 namespace ragdoll::actor {
 

@@ -3,9 +3,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "actor/sim/motion_set.h"
-#include "actor/sim/steering_task.h"
 #include "common/policy.h"
+#include "sim/motion_set.h"
+#include "sim/steering_task.h"
 
 namespace ragdoll::actor {
 namespace {
@@ -33,7 +33,7 @@ void SetPolicyThreads(int threads) { at::set_num_threads(threads); }
 RolloutWorker::RolloutWorker(const sim::EnvConfig& config, int environments, int time_horizon,
                              uint64_t seed, std::string actor_id, const TaskFactory& make_task)
     : time_horizon_(time_horizon), actor_id_(std::move(actor_id)), noise_(seed * 7919 + 1) {
-  auto character = sim::Character::Load(config.character, config.physics_dt());
+  auto character = character::Character::Load(config.character, config.physics_dt());
   auto motions = sim::LoadMotionSet(config, *character);
   sim::EnvConfig resolved = config;
   sim::ResolveAllowedContacts(*motions, *character, &resolved);

@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/env_config.h"
-#include "actor/sim/imitation_env.h"
 #include "common/running_stats.h"
 #include "common/wire.h"
+#include "sim/env_config.h"
+#include "sim/imitation_env.h"
 
 namespace ragdoll {
 class GaussianPolicyImpl;  // common/policy.h: kept out of this header, which then needs no libtorch

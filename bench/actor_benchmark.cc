@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "cli/measure.h"
+#include "bench/measure.h"
 #include "common/allocator.h"
 #include "common/blas.h"
 
@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   app.add_option("--steps", steps, "steps per environment per measurement")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
-    cli::Experiment e = cli::ReadExperiment(config);
+    run::Experiment e = run::ReadExperiment(config);
     const int K = environments > 0 ? environments : e.actor.environments;
     at::set_num_threads(1);
     std::printf("%s\n", blas::Summary(true).c_str());

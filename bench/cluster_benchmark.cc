@@ -22,9 +22,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sched.h>
-#include <signal.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -45,14 +43,15 @@
 #include <vector>
 
 #include "actor/rollout.h"
-#include "cli/experiment.h"
-#include "cli/report.h"
 #include "common/allocator.h"
 #include "common/blas.h"
 #include "common/endpoints.h"
 #include "common/median.h"
+#include "common/process.h"
 #include "common/wire.h"
 #include "learner/learner.h"
+#include "report/report.h"
+#include "run/experiment.h"
 
 namespace {
 
@@ -77,39 +76,11 @@ void PinTo(const std::vector<int>& cores) {
 class Process {
  public:
   // `cores`, when given, pins the process to them; otherwise it runs where this thread may.
-  Process(const std::string& ragdoll, std::vector<std::string> args, std::vector<int> cores = {}) {
-    args.insert(args.begin(), ragdoll);
-    pid_ = fork();
-    if (pid_ == 0) {
-      if (!cores.empty()) PinTo(cores);
-      // Keep the bench's own output readable: the roles' logs go to a file.
-      FILE* log = std::fopen("/tmp/ragdoll-bench-cluster.log", "a");
-      if (log != nullptr) {
-        dup2(fileno(log), STDOUT_FILENO);
-        dup2(fileno(log), STDERR_FILENO);
-      }
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      execv(ragdoll.c_str(), argv.data());
-      _exit(127);
-    }
-  }
-  ~Process() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGTERM);
-    for (int i = 0; i < 300; ++i) {
-      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-  }
-  Process(const Process&) = delete;
-  Process& operator=(const Process&) = delete;
+  Process(const std::string& ragdoll, std::vector<std::string> args, std::vector<int> cores = {})
+      : child_(WithProgram(ragdoll, std::move(args)), RoleOptions(ragdoll, std::move(cores))) {}
   // CPU seconds (user + system) used so far, from /proc.
   double CpuSeconds() const {
-    std::ifstream in("/proc/" + std::to_string(pid_) + "/stat");
+    std::ifstream in("/proc/" + std::to_string(child_.pid()) + "/stat");
     std::string line;
     std::getline(in, line);
     std::istringstream fields(line.substr(line.rfind(')') + 2));
@@ -122,7 +93,24 @@ class Process {
   }
 
  private:
-  pid_t pid_ = -1;
+  static std::vector<std::string> WithProgram(const std::string& ragdoll,
+                                              std::vector<std::string> args) {
+    args.insert(args.begin(), ragdoll);
+    return args;
+  }
+  static ChildProcess::Options RoleOptions(const std::string& ragdoll, std::vector<int> cores) {
+    ChildProcess::Options options;
+    options.program = ragdoll;
+    // Keep the bench's own output readable: the roles' logs go to a file.
+    options.output = ChildProcess::Output::kLog;
+    options.log = "/tmp/ragdoll-bench-cluster.log";
+    options.append = true;
+    options.cores = std::move(cores);
+    options.grace_seconds = 6;
+    return options;
+  }
+
+  ChildProcess child_;
 };
 
 // One series' value from a role's /metrics (summed over label sets); -1 when unreachable.
@@ -173,7 +161,7 @@ struct Recording {
 };
 
 // Segments from the real environment with a fresh policy: what actors send, byte for byte.
-Recording Record(const cli::Experiment& e, int count) {
+Recording Record(const run::Experiment& e, int count) {
   Recording r;
   r.time_horizon = e.trainer.time_horizon;
   actor::RolloutWorker worker(e.environment, 8, r.time_horizon, 1, "bench-actor");
@@ -376,29 +364,27 @@ nlohmann::json BenchBroker(const std::string& ragdoll, const std::string& config
   return out;
 }
 
-// A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
-// (0: more than it can take). Trained samples/s and the stale-drop fraction. Replica i runs on
-// learner_cores[i*threads .. (i+1)*threads - 1] (--pin); with none given, anywhere.
-nlohmann::json BenchLearner(const std::string& ragdoll, const cli::Experiment& e,
-                            const Recording& rec, const Ports& ports, double seconds, int threads,
-                            int replicas, double rate, int senders,
-                            const std::vector<int>& learner_cores) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("ragdoll-bench-cluster-" + std::to_string(getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  // The experiment with this thread count and nothing else changed (no checkpoints meanwhile).
+// The experiment with this thread count and nothing else changed (no checkpoints meanwhile),
+// written into `dir`; its path.
+fs::path WriteBenchConfig(const run::Experiment& e, int threads, const fs::path& dir) {
   YAML::Node node = YAML::Clone(e.tree);
   node["trainer"]["threads"] = threads;
   node["trainer"]["max_steps"] = 1e12;
   node["trainer"]["checkpoint_interval"] = 1e12;
   const fs::path bench_config = dir / "bench.yaml";
-  {
-    YAML::Emitter emitter;
-    emitter << node;
-    std::ofstream(bench_config) << emitter.c_str() << "\n";
-  }
-  Process broker(ragdoll, RoleArgs("broker", bench_config.string(), ports));
+  YAML::Emitter emitter;
+  emitter << node;
+  std::ofstream(bench_config) << emitter.c_str() << "\n";
+  return bench_config;
+}
+
+// The group's replicas, replica i on learner_cores[i*threads .. (i+1)*threads - 1] (none given:
+// anywhere).
+std::vector<std::unique_ptr<Process>> StartLearners(const std::string& ragdoll,
+                                                    const fs::path& bench_config,
+                                                    const fs::path& dir, const Ports& ports,
+                                                    int threads, int replicas,
+                                                    const std::vector<int>& learner_cores) {
   std::vector<std::unique_ptr<Process>> learners;
   for (int i = 0; i < replicas; ++i) {
     learners.push_back(std::make_unique<Process>(
@@ -410,63 +396,73 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const cli::Experiment& e
                               : std::vector<int>(learner_cores.begin() + i * threads,
                                                  learner_cores.begin() + (i + 1) * threads)));
   }
-  auto trained = [&] { return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples"); };
-  auto stale = [&] {
-    double sum = 0;
-    for (int i = 0; i < replicas; ++i) {
-      sum += std::max(
-          0.0, Scrape(ports.learner_metrics(i), "ragdoll_learner_stale_segments_dropped_total"));
-    }
-    return sum;
-  };
-  nlohmann::json out = {
-      {"threads", threads}, {"replicas", replicas}, {"pinned", !learner_cores.empty()}};
-  zmq::context_t context(2);
-  Replay replay(context, ports.endpoints, rec, senders, rate);
-  // Warm up: two updates done, so the group has formed and the first update's set-up is past.
-  const double buffer = e.trainer.buffer_size;
-  if (!WaitFor(120, [&] { return trained() >= 2 * buffer; })) {
-    out["error"] = "the learner group trained nothing within 120 s";
-    return out;
+  return learners;
+}
+
+// Samples the group has trained, from replica 0's metrics.
+double Trained(const Ports& ports) {
+  return Scrape(ports.learner_metrics(0), "ragdoll_learner_run_samples");
+}
+
+// Segments the group has dropped as stale, over all replicas.
+double Stale(const Ports& ports, int replicas) {
+  double sum = 0;
+  for (int i = 0; i < replicas; ++i) {
+    sum += std::max(
+        0.0, Scrape(ports.learner_metrics(i), "ragdoll_learner_stale_segments_dropped_total"));
   }
-  // The window runs from one update's landing to another's, so that it holds whole updates
-  // only: an update is a large part of the window, and counting from a moment in between would
-  // be off by up to one update's samples.
+  return sum;
+}
+
+double CpuSeconds(const std::vector<std::unique_ptr<Process>>& processes) {
+  double c = 0;
+  for (auto& p : processes) c += p->CpuSeconds();
+  return c;
+}
+
+// The window's figures into `out`: trained samples/s, the stale fraction and the CPU each side
+// used; the samples it trained. The window runs from one update's landing to another's, so that
+// it holds whole updates only: an update is a large part of the window, and counting from a
+// moment in between would be off by up to one update's samples.
+double MeasureWindow(const Process& broker, const std::vector<std::unique_ptr<Process>>& learners,
+                     const Ports& ports, double seconds, double rate, int time_horizon,
+                     nlohmann::json& out) {
+  const int replicas = static_cast<int>(learners.size());
   auto next_landing = [&](double after) {
-    WaitFor(60, [&] { return trained() > after; });
+    WaitFor(60, [&] { return Trained(ports) > after; });
     return Clock::now();
   };
-  double trained0 = trained();
+  double trained0 = Trained(ports);
   const auto t0 = next_landing(trained0);
-  trained0 = trained();
-  const double stale0 = stale();
-  const double cpu0 = [&] {
-    double c = 0;
-    for (auto& l : learners) c += l->CpuSeconds();
-    return c;
-  }();
+  trained0 = Trained(ports);
+  const double stale0 = Stale(ports, replicas);
+  const double cpu0 = CpuSeconds(learners);
   const double broker_cpu0 = broker.CpuSeconds(), own_cpu0 = OwnCpuSeconds();
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
-  const double before = trained();
+  const double before = Trained(ports);
   next_landing(before);
   const double wall = Since(t0);
-  double cpu = -cpu0;
-  for (auto& l : learners) cpu += l->CpuSeconds();
-  const double trained_samples = trained() - trained0;
-  const double stale_samples = (stale() - stale0) * rec.time_horizon;
+  const double cpu = CpuSeconds(learners) - cpu0;
+  const double trained_samples = Trained(ports) - trained0;
+  const double stale_samples = (Stale(ports, replicas) - stale0) * time_horizon;
   out["offered_samples_per_s"] = rate > 0 ? nlohmann::json(rate) : nlohmann::json("unlimited");
   out["trained_samples_per_s"] = trained_samples / wall;
   out["stale_fraction"] = stale_samples / std::max(1.0, stale_samples + trained_samples);
   out["learner_cpu_cores"] = cpu / wall;
   out["broker_cpu_cores"] = (broker.CpuSeconds() - broker_cpu0) / wall;
   out["synthetic_actors_cpu_cores"] = (OwnCpuSeconds() - own_cpu0) / wall;
-  // Where the window's time went, from replica 0's metrics.csv (its last rows are the window's
-  // updates): the median update's seconds and the median fraction of an iteration rank 0 spent
-  // waiting for segments.
+  return trained_samples;
+}
+
+// Where the window's time went, from replica 0's metrics.csv (its last rows are the window's
+// updates): the median update's seconds and the median fraction of an iteration rank 0 spent
+// waiting for segments.
+void AddUpdateFigures(const fs::path& metrics_csv, double trained_samples, double buffer,
+                      nlohmann::json& out) {
   try {
     std::stringstream text;
-    text << std::ifstream(dir / "run" / "metrics.csv").rdbuf();
-    const cli::MetricsTable table = cli::ParseMetricsCsv(text.str(), "metrics.csv");
+    text << std::ifstream(metrics_csv).rdbuf();
+    const learner::MetricsTable table = learner::ParseMetricsCsv(text.str(), "metrics.csv");
     const std::vector<double>* update_s = table.Column("update_s");
     const std::vector<double>* idle = table.Column("idle_fraction");
     const auto updates =
@@ -479,6 +475,36 @@ nlohmann::json BenchLearner(const std::string& ragdoll, const cli::Experiment& e
   } catch (const std::exception& error) {
     out["metrics_csv_error"] = error.what();
   }
+}
+
+// A learner group of `replicas` with `threads` intra-op threads each, offered `rate` samples/s
+// (0: more than it can take). Trained samples/s and the stale-drop fraction. Replica i runs on
+// learner_cores[i*threads .. (i+1)*threads - 1] (--pin); with none given, anywhere.
+nlohmann::json BenchLearner(const std::string& ragdoll, const run::Experiment& e,
+                            const Recording& rec, const Ports& ports, double seconds, int threads,
+                            int replicas, double rate, int senders,
+                            const std::vector<int>& learner_cores) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("ragdoll-bench-cluster-" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path bench_config = WriteBenchConfig(e, threads, dir);
+  Process broker(ragdoll, RoleArgs("broker", bench_config.string(), ports));
+  const std::vector<std::unique_ptr<Process>> learners =
+      StartLearners(ragdoll, bench_config, dir, ports, threads, replicas, learner_cores);
+  nlohmann::json out = {
+      {"threads", threads}, {"replicas", replicas}, {"pinned", !learner_cores.empty()}};
+  zmq::context_t context(2);
+  Replay replay(context, ports.endpoints, rec, senders, rate);
+  // Warm up: two updates done, so the group has formed and the first update's set-up is past.
+  const double buffer = e.trainer.buffer_size;
+  if (!WaitFor(120, [&] { return Trained(ports) >= 2 * buffer; })) {
+    out["error"] = "the learner group trained nothing within 120 s";
+    return out;
+  }
+  const double trained_samples =
+      MeasureWindow(broker, learners, ports, seconds, rate, rec.time_horizon, out);
+  AddUpdateFigures(dir / "run" / "metrics.csv", trained_samples, buffer, out);
   fs::remove_all(dir);
   return out;
 }
@@ -541,7 +567,7 @@ nlohmann::json BenchSnapshots(const std::string& ragdoll, const std::string& con
 // train on, so they may absorb more than they train flooded), down by 15 % while it fails, then
 // once halfway between the last pass and the first failure. The figure is the best absorption
 // among the runs that passed.
-nlohmann::json Absorption(const std::string& ragdoll, const cli::Experiment& e,
+nlohmann::json Absorption(const std::string& ragdoll, const run::Experiment& e,
                           const Recording& rec, const Ports& ports, double seconds, int threads,
                           int replicas, int senders, const std::vector<int>& learner_cores,
                           const nlohmann::json& flood, double lowest_start) {
@@ -720,7 +746,7 @@ void PrintMedians(const Rounds& rounds, nlohmann::json& result) {
 // Each learner group flooded, then its absorption searched; --repeats rounds of all groups in
 // turn (1, 2, 1, 2, ...), so that a replica group's ratio to one replica compares runs minutes
 // apart, not a whole search apart: the machines drift within an hour (docs/learner-scaling.md).
-void LearnerFigures(const BenchOptions& o, const cli::Experiment& e, const Recording& rec,
+void LearnerFigures(const BenchOptions& o, const run::Experiment& e, const Recording& rec,
                     const Ports& ports, const std::vector<int>& learner_cores,
                     nlohmann::json& result) {
   std::vector<std::pair<int, int>> groups;
@@ -775,7 +801,7 @@ int Run(const BenchOptions& o) {
       o.harness_list.empty() ? std::vector<int>{} : Numbers(o.harness_list);
   const std::vector<int> learner_cores = LearnerCores(o, harness);
   if (!harness.empty()) PinTo(harness);
-  cli::Experiment e = cli::ReadExperiment(o.config);
+  run::Experiment e = run::ReadExperiment(o.config);
   const Ports ports = MakePorts(o.port_base, e.broker.endpoints, MakeKeys(o));
   const int buffer_segments = static_cast<int>(e.trainer.buffer_size / e.trainer.time_horizon) + 1;
   std::fprintf(stderr, "recording %d segments from %s ...\n", buffer_segments, o.config.c_str());

@@ -16,20 +16,21 @@
 #include <memory>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/env_config.h"
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_set.h"
-#include "cli/measure.h"
+#include "bench/measure.h"
+#include "character/character.h"
 #include "common/allocator.h"
 #include "common/blas.h"
 #include "common/config_section.h"
 #include "common/median.h"
+#include "sim/env_config.h"
+#include "sim/imitation_env.h"
+#include "sim/motion_set.h"
 
 namespace {
 
 using namespace ragdoll;
 using namespace ragdoll::sim;
+using ragdoll::character::Character;
 using Clock = std::chrono::steady_clock;
 
 struct Experiment {
@@ -43,7 +44,7 @@ Experiment LoadExperiment(const std::string& path) {
   Experiment e;
   e.config_path = path;
   ConfigSection root = ConfigSection::FromFile(path);
-  e.config = ReadEnvConfig(root.Section("environment"), sim::DefaultCharacterPath());
+  e.config = ReadEnvConfig(root.Section("environment"), character::DefaultCharacterPath());
   e.character = Character::Load(e.config.character, e.config.physics_dt());
   e.motions = LoadMotionSet(e.config, *e.character);
   return e;

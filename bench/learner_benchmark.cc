@@ -21,17 +21,17 @@
 #include <vector>
 
 #include <sched.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include "actor/sim/imitation_env.h"
-#include "cli/experiment.h"
-#include "cli/measure.h"
+#include "bench/measure.h"
 #include "common/allocator.h"
 #include "common/blas.h"
 #include "common/median.h"
+#include "common/process.h"
 #include "learner/learner.h"
 #include "learner/replica_group.h"
+#include "run/experiment.h"
+#include "sim/imitation_env.h"
 
 namespace {
 
@@ -50,7 +50,7 @@ void PinToCore(int core) {
 // waiting), then the group runs its update: the two are timed seconds apart, so the machine's
 // drift (on these shared machines, tens of per cent over minutes) cancels in each round's ratio.
 // Rank 0 prints the medians on stdout.
-int RunReplica(const cli::Experiment& e, int rank, int replicas, int port, int repeats) {
+int RunReplica(const run::Experiment& e, int rank, int replicas, int port, int repeats) {
   PinToCore(rank);
   at::set_num_threads(1);
   const learner::TrainerConfig& c = e.trainer;
@@ -114,41 +114,22 @@ struct GroupFigures {
 
 // Starts `replicas` copies of this program as a group and returns rank 0's figures.
 GroupFigures RunGroup(const std::string& config, int replicas, int port, int repeats) {
-  int out[2];
-  if (pipe(out) != 0) throw std::runtime_error("pipe failed");
-  std::vector<pid_t> children;
-  // Each child's arguments are made before fork: between fork and exec only system calls run.
-  std::vector<std::vector<std::string>> args;
+  std::vector<std::unique_ptr<ChildProcess>> children;
   for (int rank = 0; rank < replicas; ++rank) {
-    args.push_back({"ragdoll-bench-learner", config, "--repeats", std::to_string(repeats),
-                    "--replicas", std::to_string(replicas), "--store-port", std::to_string(port),
-                    "--rank", std::to_string(rank)});
+    // Rank 0's stdout carries the figures; the others' goes with the messages, to stderr.
+    ChildProcess::Options options;
+    options.program = kThisProgram;
+    options.output = rank == 0 ? ChildProcess::Output::kPipe : ChildProcess::Output::kStderr;
+    children.push_back(std::make_unique<ChildProcess>(
+        std::vector<std::string>{"ragdoll-bench-learner", config, "--repeats",
+                                 std::to_string(repeats), "--replicas", std::to_string(replicas),
+                                 "--store-port", std::to_string(port), "--rank",
+                                 std::to_string(rank)},
+        options));
   }
-  for (int rank = 0; rank < replicas; ++rank) {
-    std::vector<char*> argv;
-    for (auto& a : args[rank]) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    pid_t pid = fork();
-    if (pid == 0) {
-      dup2(rank == 0 ? out[1] : STDERR_FILENO, STDOUT_FILENO);
-      close(out[0]);
-      close(out[1]);
-      execv("/proc/self/exe", argv.data());
-      _exit(127);
-    }
-    children.push_back(pid);
-  }
-  close(out[1]);
-  std::string text;
-  char buffer[256];
-  for (ssize_t n; (n = read(out[0], buffer, sizeof(buffer))) > 0;) text.append(buffer, n);
-  close(out[0]);
+  const std::string text = children[0]->ReadOutput();
   bool ok = true;
-  for (pid_t pid : children) {
-    int status = 0;
-    waitpid(pid, &status, 0);
-    ok = ok && WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  }
+  for (auto& child : children) ok = child->Wait() == 0 && ok;
   GroupFigures f{};
   if (!ok || std::sscanf(text.c_str(), "%lf %lf %lf %lf %lf %lf %lld", &f.samples_per_second,
                          &f.alone, &f.ratio, &f.ratio_min, &f.ratio_max, &f.allreduce_seconds,
@@ -178,7 +159,7 @@ int main(int argc, char** argv) {
   app.add_option("--rank", rank)->group("");  // a replica started by the benchmark itself
   CLI11_PARSE(app, argc, argv);
   try {
-    cli::Experiment e = cli::ReadExperiment(config);
+    run::Experiment e = run::ReadExperiment(config);
     if (rank >= 0) return RunReplica(e, rank, replicas, port, repeats);
     if (replicas > 1) {
       // Beside a group, the single learner gets what each replica gets: one core, one thread.

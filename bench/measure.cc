@@ -1,4 +1,4 @@
-#include "cli/measure.h"
+#include "bench/measure.h"
 
 #include <torch/torch.h>
 
@@ -8,11 +8,11 @@
 #include <string>
 
 #include "actor/rollout.h"
-#include "actor/sim/motion_set.h"
 #include "common/median.h"
 #include "common/wire.h"
 #include "learner/learner.h"
 #include "learner/raw_training.h"
+#include "sim/motion_set.h"
 
 namespace ragdoll::bench {
 namespace {
@@ -25,7 +25,8 @@ double Since(Clock::time_point start) {
 
 }  // namespace
 
-Recording Record(const sim::EnvConfig& config, std::shared_ptr<const sim::Character> character,
+Recording Record(const sim::EnvConfig& config,
+                 std::shared_ptr<const character::Character> character,
                  std::shared_ptr<const sim::MotionSet> motions, int steps, uint64_t seed) {
   sim::ImitationEnv env(character, motions, config, seed);
   const mjModel* m = character->model();
@@ -49,9 +50,9 @@ Recording Record(const sim::EnvConfig& config, std::shared_ptr<const sim::Charac
   return r;
 }
 
-double RawPhysicsRate(const sim::Character& character, int substeps, const Recording& r) {
+double RawPhysicsRate(const character::Character& character, int substeps, const Recording& r) {
   const mjModel* m = character.model();
-  sim::DataPtr d = character.MakeData();
+  character::DataPtr d = character.MakeData();
   const int steps = static_cast<int>(r.reset_before.size());
   int resets = 0;
   const auto start = Clock::now();
@@ -70,7 +71,7 @@ double RawPhysicsRate(const sim::Character& character, int substeps, const Recor
 }
 
 PhysicsFigures MeasurePhysics(const sim::EnvConfig& environment, int steps, int repeats) {
-  auto character = sim::Character::Load(environment.character, environment.physics_dt());
+  auto character = character::Character::Load(environment.character, environment.physics_dt());
   auto motions = sim::LoadMotionSet(environment, *character);
   const Recording r = Record(environment, character, motions, steps, 1);
   std::vector<double> rates;
@@ -83,7 +84,7 @@ PhysicsFigures MeasurePhysics(const sim::EnvConfig& environment, int steps, int 
   return f;
 }
 
-ActorFigures MeasureActor(const cli::Experiment& e, int K, int steps, int repeats) {
+ActorFigures MeasureActor(const run::Experiment& e, int K, int steps, int repeats) {
   actor::RolloutWorker worker(e.environment, K, steps, 1, "bench");
   GaussianPolicy policy(worker.spec().observation_size, worker.spec().action_size,
                         e.trainer.network);
@@ -94,7 +95,7 @@ ActorFigures MeasureActor(const cli::Experiment& e, int K, int steps, int repeat
   // trajectories (rollouts are bit-identical for a seed), fall and reset at the same steps; the
   // difference is only the policy: normalisation, the batched forward, sampling and building
   // the segments. Packing the segments for the wire is timed separately.
-  auto character = sim::Character::Load(e.environment.character, e.environment.physics_dt());
+  auto character = character::Character::Load(e.environment.character, e.environment.physics_dt());
   auto motions = sim::LoadMotionSet(e.environment, *character);
   std::vector<std::unique_ptr<sim::ImitationEnv>> envs;
   for (int k = 0; k < K; ++k) {
@@ -184,7 +185,7 @@ void FillWithSyntheticSegments(learner::Learner& l, int T, int O, int A, std::mt
   }
 }
 
-LearnerFigures MeasureLearner(const cli::Experiment& e, int repeats) {
+LearnerFigures MeasureLearner(const run::Experiment& e, int repeats) {
   const learner::TrainerConfig& c = e.trainer;
   const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
   const int O = spec.observation_size, A = spec.action_size;

@@ -9,10 +9,10 @@
 #include <random>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/imitation_env.h"
-#include "cli/experiment.h"
+#include "character/character.h"
 #include "learner/learner.h"
+#include "run/experiment.h"
+#include "sim/imitation_env.h"
 
 namespace ragdoll::bench {
 
@@ -25,11 +25,12 @@ struct Recording {
   std::vector<double> reset_qpos, reset_qvel;
 };
 
-Recording Record(const sim::EnvConfig& config, std::shared_ptr<const sim::Character> character,
+Recording Record(const sim::EnvConfig& config,
+                 std::shared_ptr<const character::Character> character,
                  std::shared_ptr<const sim::MotionSet> motions, int steps, uint64_t seed);
 
 // Physics steps per second of plain mj_step replaying the recording, `substeps` per control step.
-double RawPhysicsRate(const sim::Character& character, int substeps, const Recording& r);
+double RawPhysicsRate(const character::Character& character, int substeps, const Recording& r);
 
 struct PhysicsFigures {
   double steps_per_second = 0;  // raw mj_step, replaying an environment run's controls and resets
@@ -50,7 +51,7 @@ struct ActorFigures {
 };
 
 // One thread, K environments, `steps` per environment per repeat.
-ActorFigures MeasureActor(const cli::Experiment& e, int environments, int steps, int repeats);
+ActorFigures MeasureActor(const run::Experiment& e, int environments, int steps, int repeats);
 
 struct LearnerFigures {
   double update = 0;  // PPO update samples/s per epoch
@@ -68,6 +69,6 @@ struct LearnerFigures {
 void FillWithSyntheticSegments(learner::Learner& l, int T, int O, int A, std::mt19937& rng);
 
 // The update on a buffer of synthetic segments, at the intra-op thread count already set.
-LearnerFigures MeasureLearner(const cli::Experiment& e, int repeats);
+LearnerFigures MeasureLearner(const run::Experiment& e, int repeats);
 
 }  // namespace ragdoll::bench

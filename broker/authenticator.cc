@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-#include "common/curve.h"
+#include "common/keys.h"
 
 namespace ragdoll::broker {
 namespace fs = std::filesystem;

@@ -1,12 +1,12 @@
-#include "actor/sim/character.h"
+#include "character/character.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 namespace {
 
 const char* kBodyOrder[] = {"root",          "chest",       "neck",           "right_hip",
@@ -14,6 +14,84 @@ const char* kBodyOrder[] = {"root",          "chest",       "neck",           "r
                             "right_wrist",   "left_hip",    "left_knee",      "left_ankle",
                             "left_shoulder", "left_elbow",  "left_wrist"};
 const char* kEndEffectors[] = {"right_wrist", "left_wrist", "right_ankle", "left_ankle"};
+
+// The bodies of kBodyOrder, in that order.
+std::vector<int> SkeletonBodies(const mjModel* m, const std::string& path) {
+  std::vector<int> bodies;
+  for (const char* name : kBodyOrder) {
+    int id = mj_name2id(m, mjOBJ_BODY, name);
+    if (id < 0) ThrowConfigError(path, std::string("missing body '") + name + "'");
+    bodies.push_back(id);
+  }
+  return bodies;
+}
+
+// MuJoCo joint `jnt` as the actuated hinge `name` of skeleton joint `joint`, its actuator checked
+// (`where` names it in errors).
+ActuatedHinge BuildHinge(const mjModel* m, int jnt, const char* name, int joint,
+                         const std::string& path, const std::string& where) {
+  ActuatedHinge hinge;
+  hinge.name = name;
+  hinge.joint = joint;
+  hinge.qpos_address = m->jnt_qposadr[jnt];
+  hinge.dof_address = m->jnt_dofadr[jnt];
+  hinge.lower = m->jnt_range[2 * jnt];
+  hinge.upper = m->jnt_range[2 * jnt + 1];
+  hinge.actuator = -1;
+  for (int a = 0; a < m->nu; ++a) {
+    if (m->actuator_trntype[a] == mjTRN_JOINT && m->actuator_trnid[2 * a] == jnt) {
+      hinge.actuator = a;
+    }
+  }
+  if (hinge.actuator < 0) ThrowConfigError(path, where + ": has no actuator");
+  // A position actuator: force = kp * (ctrl - q), i.e. gain kp and bias (0, -kp, *).
+  int a = hinge.actuator;
+  if (m->actuator_gaintype[a] != mjGAIN_FIXED || m->actuator_biastype[a] != mjBIAS_AFFINE ||
+      m->actuator_biasprm[mjNBIAS * a + 1] != -m->actuator_gainprm[mjNGAIN * a]) {
+    ThrowConfigError(path, where + ": its actuator must be a <position> actuator (a PD target)");
+  }
+  return hinge;
+}
+
+// Skeleton joint `sj` (the `index`th) as built on MuJoCo body `body`; appends its actuated hinges
+// to `hinges`.
+CharacterJoint BuildJoint(const mjModel* m, const SkeletonJoint& sj, int body, int index,
+                          std::vector<ActuatedHinge>* hinges, const std::string& path) {
+  CharacterJoint joint;
+  joint.name = sj.name;
+  joint.body = body;
+  int expected = sj.type == JointType::kSpherical ? 3 : 1;
+  if (m->body_jntnum[joint.body] != expected) {
+    ThrowConfigError(
+        path, "joint '" + sj.name + "' must be built of " + std::to_string(expected) + " hinge(s)");
+  }
+  joint.axes.count = expected;
+  int first = m->body_jntadr[joint.body];
+  joint.qpos_address = m->jnt_qposadr[first];
+  joint.dof_address = m->jnt_dofadr[first];
+  bool used[3] = {false, false, false};
+  for (int h = 0; h < expected; ++h) {
+    int jnt = first + h;
+    const char* hname = mj_id2name(m, mjOBJ_JOINT, jnt);
+    std::string where = "joint '" + sj.name + "' hinge " + (hname ? hname : "?");
+    if (m->jnt_type[jnt] != mjJNT_HINGE) ThrowConfigError(path, where + ": must be a hinge");
+    if (!m->jnt_limited[jnt]) ThrowConfigError(path, where + ": must have a range");
+    // Hinge axes must be signed coordinate axes of the body frame, all different.
+    const mjtNum* axis = m->jnt_axis + 3 * jnt;
+    int k = static_cast<int>(
+        std::max_element(axis, axis + 3,
+                         [](double a, double b) { return std::abs(a) < std::abs(b); }) -
+        axis);
+    if (std::abs(std::abs(axis[k]) - 1) > 1e-9 || used[k]) {
+      ThrowConfigError(path, where + ": axes must be distinct coordinate axes (e.g. \"0 1 0\")");
+    }
+    used[k] = true;
+    joint.axes.axis[h] = k;
+    joint.axes.sign[h] = axis[k] > 0 ? 1.0 : -1.0;
+    hinges->push_back(BuildHinge(m, jnt, hname ? hname : sj.name.c_str(), index, path, where));
+  }
+  return joint;
+}
 
 }  // namespace
 
@@ -27,81 +105,24 @@ std::shared_ptr<const Character> Character::Load(const std::string& path, double
   c->warnings_ = error;  // a successful load leaves compiler warnings here
   if (timestep > 0) raw->opt.timestep = timestep;
   const mjModel* m = raw;
-  auto fail = [&path](const std::string& message) { throw ConfigError(path + ": " + message); };
 
-  for (const char* name : kBodyOrder) {
-    int id = mj_name2id(m, mjOBJ_BODY, name);
-    if (id < 0) fail(std::string("missing body '") + name + "'");
-    c->bodies_.push_back(id);
-  }
+  c->bodies_ = SkeletonBodies(m, path);
   for (const char* name : kEndEffectors) c->end_effectors_.push_back(c->BodyId(name));
   int root = c->bodies_[0];
   if (m->body_jntnum[root] != 1 || m->jnt_type[m->body_jntadr[root]] != mjJNT_FREE ||
       m->jnt_qposadr[m->body_jntadr[root]] != 0) {
-    fail("body 'root' must have a single free joint, the model's first joint");
+    ThrowConfigError(path, "body 'root' must have a single free joint, the model's first joint");
   }
   c->total_mass_ = 0;
   for (int b : c->bodies_) c->total_mass_ += m->body_mass[b];
 
   for (const auto& sj : Humanoid3dJoints()) {
-    CharacterJoint joint;
-    joint.name = sj.name;
-    joint.body = c->BodyId(sj.name);
-    int expected = sj.type == JointType::kSpherical ? 3 : 1;
-    if (m->body_jntnum[joint.body] != expected) {
-      fail("joint '" + sj.name + "' must be built of " + std::to_string(expected) + " hinge(s)");
-    }
-    joint.axes.count = expected;
-    int first = m->body_jntadr[joint.body];
-    joint.qpos_address = m->jnt_qposadr[first];
-    joint.dof_address = m->jnt_dofadr[first];
-    bool used[3] = {false, false, false};
-    for (int h = 0; h < expected; ++h) {
-      int jnt = first + h;
-      const char* hname = mj_id2name(m, mjOBJ_JOINT, jnt);
-      std::string where = "joint '" + sj.name + "' hinge " + (hname ? hname : "?");
-      if (m->jnt_type[jnt] != mjJNT_HINGE) fail(where + ": must be a hinge");
-      if (!m->jnt_limited[jnt]) fail(where + ": must have a range");
-      // Hinge axes must be signed coordinate axes of the body frame, all different.
-      const mjtNum* axis = m->jnt_axis + 3 * jnt;
-      int k = static_cast<int>(
-          std::max_element(axis, axis + 3,
-                           [](double a, double b) { return std::abs(a) < std::abs(b); }) -
-          axis);
-      if (std::abs(std::abs(axis[k]) - 1) > 1e-9 || used[k]) {
-        fail(where + ": axes must be distinct coordinate axes (e.g. \"0 1 0\")");
-      }
-      used[k] = true;
-      joint.axes.axis[h] = k;
-      joint.axes.sign[h] = axis[k] > 0 ? 1.0 : -1.0;
-
-      ActuatedHinge hinge;
-      hinge.name = hname ? hname : sj.name;
-      hinge.joint = static_cast<int>(c->joints_.size());
-      hinge.qpos_address = m->jnt_qposadr[jnt];
-      hinge.dof_address = m->jnt_dofadr[jnt];
-      hinge.lower = m->jnt_range[2 * jnt];
-      hinge.upper = m->jnt_range[2 * jnt + 1];
-      hinge.actuator = -1;
-      for (int a = 0; a < m->nu; ++a) {
-        if (m->actuator_trntype[a] == mjTRN_JOINT && m->actuator_trnid[2 * a] == jnt) {
-          hinge.actuator = a;
-        }
-      }
-      if (hinge.actuator < 0) fail(where + ": has no actuator");
-      // A position actuator: force = kp * (ctrl - q), i.e. gain kp and bias (0, -kp, *).
-      int a = hinge.actuator;
-      if (m->actuator_gaintype[a] != mjGAIN_FIXED || m->actuator_biastype[a] != mjBIAS_AFFINE ||
-          m->actuator_biasprm[mjNBIAS * a + 1] != -m->actuator_gainprm[mjNGAIN * a]) {
-        fail(where + ": its actuator must be a <position> actuator (a PD target)");
-      }
-      c->hinges_.push_back(hinge);
-    }
-    c->joints_.push_back(joint);
+    const int index = static_cast<int>(c->joints_.size());
+    c->joints_.push_back(BuildJoint(m, sj, c->BodyId(sj.name), index, &c->hinges_, path));
   }
   if (static_cast<int>(c->hinges_.size()) != m->nu) {
-    fail("expected one actuator per hinge (" + std::to_string(c->hinges_.size()) + "), found " +
-         std::to_string(m->nu));
+    ThrowConfigError(path, "expected one actuator per hinge (" + std::to_string(c->hinges_.size()) +
+                               "), found " + std::to_string(m->nu));
   }
   // Order hinges as the actuators are declared, so action i drives actuator i.
   std::sort(c->hinges_.begin(), c->hinges_.end(),
@@ -180,4 +201,4 @@ double Character::LowestPoint(const Pose& pose, const std::vector<int>& bodies) 
   return lowest;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/motion_clip.h"
-#include "actor/sim/rotation.h"
+#include "character/motion_clip.h"
+#include "character/rotation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
@@ -97,4 +97,4 @@ class Character {
   double total_mass_ = 0;
 };
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -1,8 +1,8 @@
-#include "actor/sim/ground_contacts.h"
+#include "character/ground_contacts.h"
 
 #include <algorithm>
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 std::vector<std::pair<std::string, double>> GroundContactFractions(const MotionClip& clip,
                                                                    const Character& character,
@@ -73,4 +73,4 @@ bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<c
   return false;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -6,10 +6,10 @@
 #include <utility>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 // A body touches the floor when some geom of it comes within this height of it, in metres.
 inline constexpr double kGroundContactHeight = 0.02;
@@ -31,4 +31,4 @@ void BodiesOnGround(const mjModel* m, const mjData& d, std::vector<char>* on);
 // in `d`'s current contacts: a fall, by the episode's rule or recovery's.
 bool TouchesGroundOutside(const mjModel* m, const mjData& d, const std::vector<char>& may_touch);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

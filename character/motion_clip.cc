@@ -1,12 +1,12 @@
-#include "actor/sim/motion_clip.h"
+#include "character/motion_clip.h"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 namespace {
 
 // Rotations in clip files are often not quite unit quaternions: DeepMimic's published motions
@@ -205,4 +205,4 @@ PoseVelocity MotionClip::SampleVelocity(double time) const {
   return out;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 // A kinematic pose. Z-up world, metres; rotations are unit quaternions (w, x, y, z).
 struct Pose {
@@ -103,4 +103,4 @@ class MotionClip {
   double max_norm_deviation_ = 0;
 };
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

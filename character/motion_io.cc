@@ -1,4 +1,4 @@
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 
 #include <nlohmann/json.hpp>
 
@@ -11,10 +11,10 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 namespace {
 
 using nlohmann::json;
@@ -22,14 +22,11 @@ using nlohmann::json;
 constexpr const char* kFormatName = "ragdoll-clip";
 constexpr int kFormatVersion = 1;
 
-[[noreturn]] void Fail(const std::string& origin, const std::string& message) {
-  throw ConfigError(origin + ": " + message);
-}
-
 double Number(const json& value, const std::string& origin, const std::string& where) {
-  if (!value.is_number()) Fail(origin, where + ": expected a number, got " + value.dump());
+  if (!value.is_number())
+    ThrowConfigError(origin, where + ": expected a number, got " + value.dump());
   double x = value.get<double>();
-  if (!std::isfinite(x)) Fail(origin, where + ": not a finite number");
+  if (!std::isfinite(x)) ThrowConfigError(origin, where + ": not a finite number");
   return x;
 }
 
@@ -37,7 +34,8 @@ template <size_t N>
 std::array<double, N> Numbers(const json& value, const std::string& origin,
                               const std::string& where) {
   if (!value.is_array() || value.size() != N) {
-    Fail(origin, where + ": expected " + std::to_string(N) + " numbers, got " + value.dump());
+    ThrowConfigError(origin,
+                     where + ": expected " + std::to_string(N) + " numbers, got " + value.dump());
   }
   std::array<double, N> out;
   for (size_t i = 0; i < N; ++i) out[i] = Number(value[i], origin, where);
@@ -49,7 +47,7 @@ MotionClip Build(const std::string& origin, const std::string& name, bool loop,
   try {
     return MotionClip(name, loop, std::move(durations), std::move(frames), cycle);
   } catch (const std::invalid_argument& e) {
-    Fail(origin, e.what());
+    ThrowConfigError(origin, e.what());
   }
 }
 
@@ -61,12 +59,12 @@ MotionClip ParseDeepMimic(const json& doc, const std::string& origin) {
   if (doc.contains("Loop")) {
     const json& l = doc["Loop"];
     if (!l.is_string() || (l != "wrap" && l != "none")) {
-      Fail(origin, "Loop: expected \"wrap\" or \"none\", got " + l.dump());
+      ThrowConfigError(origin, "Loop: expected \"wrap\" or \"none\", got " + l.dump());
     }
     loop = l == "wrap";
   }
   const json& raw = doc["Frames"];
-  if (!raw.is_array()) Fail(origin, "Frames: expected a list of frames");
+  if (!raw.is_array()) ThrowConfigError(origin, "Frames: expected a list of frames");
   size_t expected = 1 + 3 + 4;
   for (const auto& j : joints) expected += j.type == JointType::kSpherical ? 4 : 1;
   std::vector<double> durations;
@@ -75,8 +73,9 @@ MotionClip ParseDeepMimic(const json& doc, const std::string& origin) {
     std::string where = "frame " + std::to_string(f);
     const json& values = raw[f];
     if (!values.is_array() || values.size() != expected) {
-      Fail(origin, where + ": expected " + std::to_string(expected) + " values per frame, got " +
-                       (values.is_array() ? std::to_string(values.size()) : values.dump()));
+      ThrowConfigError(
+          origin, where + ": expected " + std::to_string(expected) + " values per frame, got " +
+                      (values.is_array() ? std::to_string(values.size()) : values.dump()));
     }
     size_t k = 0;
     auto next = [&](const std::string& field) {
@@ -108,88 +107,112 @@ MotionClip ParseDeepMimic(const json& doc, const std::string& origin) {
                std::move(frames), CycleTransform::kTranslation);
 }
 
-MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
+// The top-level fields are known ones, and the format and version this build reads.
+void CheckProjectHeader(const json& doc, const std::string& origin) {
   static const std::set<std::string> kKeys = {"format",         "version", "name",
                                               "description",    "loop",    "cycle",
                                               "frame_duration", "joints",  "frames"};
   for (const auto& item : doc.items()) {
-    if (!kKeys.count(item.key())) Fail(origin, "unknown field '" + item.key() + "'");
+    if (!kKeys.count(item.key())) ThrowConfigError(origin, "unknown field '" + item.key() + "'");
   }
   if (!doc.contains("format") || !doc["format"].is_string() || doc["format"] != kFormatName) {
-    Fail(origin, std::string("format: expected \"") + kFormatName + "\"");
+    ThrowConfigError(origin, std::string("format: expected \"") + kFormatName + "\"");
   }
   if (!doc.contains("version") || doc["version"] != kFormatVersion) {
-    Fail(origin, "version: this build reads version " + std::to_string(kFormatVersion));
+    ThrowConfigError(origin, "version: this build reads version " + std::to_string(kFormatVersion));
   }
-  std::string name =
-      doc.contains("name") && doc["name"].is_string() ? doc["name"].get<std::string>() : origin;
-  if (!doc.contains("loop") || !doc["loop"].is_boolean()) Fail(origin, "loop: expected true/false");
-  bool loop = doc["loop"].get<bool>();
+}
+
+CycleTransform ReadCycle(const json& doc, const std::string& origin) {
   CycleTransform cycle = CycleTransform::kPlanar;
   if (doc.contains("cycle")) {
     const json& c = doc["cycle"];
     if (c != "planar" && c != "translation") {
-      Fail(origin, "cycle: expected \"planar\" or \"translation\", got " + c.dump());
+      ThrowConfigError(origin, "cycle: expected \"planar\" or \"translation\", got " + c.dump());
     }
     if (c == "translation") cycle = CycleTransform::kTranslation;
   }
-  if (!doc.contains("frame_duration")) Fail(origin, "frame_duration: missing");
-  double frame_duration = Number(doc["frame_duration"], origin, "frame_duration");
-  if (frame_duration <= 0) Fail(origin, "frame_duration: must be positive");
+  return cycle;
+}
 
-  // The joints this file animates, in the order of each frame's "rotations"; joints it leaves out
-  // stay at their rest (identity) rotation.
+// The joints this file animates, in the order of each frame's "rotations"; joints it leaves out
+// stay at their rest (identity) rotation.
+std::vector<int> ReadJointSlots(const json& doc, const std::string& origin) {
   const auto& skeleton = Humanoid3dJoints();
   if (!doc.contains("joints") || !doc["joints"].is_array()) {
-    Fail(origin, "joints: expected a list of joint names");
+    ThrowConfigError(origin, "joints: expected a list of joint names");
   }
   std::vector<int> slots;
   for (const auto& j : doc["joints"]) {
-    if (!j.is_string()) Fail(origin, "joints: expected names, got " + j.dump());
+    if (!j.is_string()) ThrowConfigError(origin, "joints: expected names, got " + j.dump());
     int slot = FindJoint(j.get<std::string>());
     if (slot < 0) {
       std::string known;
       for (const auto& s : skeleton) known += " " + s.name;
-      Fail(origin,
-           "joints: unknown joint '" + j.get<std::string>() + "'; the skeleton has:" + known);
+      ThrowConfigError(origin, "joints: unknown joint '" + j.get<std::string>() +
+                                   "'; the skeleton has:" + known);
     }
     for (int s : slots) {
-      if (s == slot) Fail(origin, "joints: '" + j.get<std::string>() + "' is listed twice");
+      if (s == slot)
+        ThrowConfigError(origin, "joints: '" + j.get<std::string>() + "' is listed twice");
     }
     slots.push_back(slot);
   }
+  return slots;
+}
 
+// One entry of "frames" (`where` names it in errors); `slots` from ReadJointSlots.
+Pose ReadProjectFrame(const json& frame, const std::string& where, const std::vector<int>& slots,
+                      const std::string& origin) {
+  const auto& skeleton = Humanoid3dJoints();
+  if (!frame.is_object()) ThrowConfigError(origin, where + ": expected an object");
+  for (const auto& item : frame.items()) {
+    if (item.key() != "root_position" && item.key() != "root_rotation" &&
+        item.key() != "rotations") {
+      ThrowConfigError(origin, where + ": unknown field '" + item.key() + "'");
+    }
+  }
+  Pose pose;
+  pose.root_position =
+      Numbers<3>(frame.value("root_position", json()), origin, where + ": root_position");
+  pose.root_rotation =
+      Numbers<4>(frame.value("root_rotation", json()), origin, where + ": root_rotation");
+  pose.joint_rotations.assign(skeleton.size(), kIdentityQuat);
+  const json& rotations = frame.value("rotations", json());
+  if (!rotations.is_array() || rotations.size() != slots.size()) {
+    ThrowConfigError(origin,
+                     where + ": rotations: expected " + std::to_string(slots.size()) +
+                         " quaternions (one per entry of \"joints\"), got " +
+                         (rotations.is_array() ? std::to_string(rotations.size()) : "none"));
+  }
+  for (size_t j = 0; j < slots.size(); ++j) {
+    pose.joint_rotations[slots[j]] =
+        Numbers<4>(rotations[j], origin, where + ": rotations: " + skeleton[slots[j]].name);
+  }
+  return pose;
+}
+
+MotionClip ParseProjectClip(const json& doc, const std::string& origin) {
+  CheckProjectHeader(doc, origin);
+  std::string name =
+      doc.contains("name") && doc["name"].is_string() ? doc["name"].get<std::string>() : origin;
+  if (!doc.contains("loop") || !doc["loop"].is_boolean())
+    ThrowConfigError(origin, "loop: expected true/false");
+  bool loop = doc["loop"].get<bool>();
+  CycleTransform cycle = ReadCycle(doc, origin);
+  if (!doc.contains("frame_duration")) ThrowConfigError(origin, "frame_duration: missing");
+  double frame_duration = Number(doc["frame_duration"], origin, "frame_duration");
+  if (frame_duration <= 0) ThrowConfigError(origin, "frame_duration: must be positive");
+
+  const std::vector<int> slots = ReadJointSlots(doc, origin);
   if (!doc.contains("frames") || !doc["frames"].is_array()) {
-    Fail(origin, "frames: expected a list of frames");
+    ThrowConfigError(origin, "frames: expected a list of frames");
   }
   std::vector<Pose> frames;
   for (size_t f = 0; f < doc["frames"].size(); ++f) {
     const json& frame = doc["frames"][f];
     std::string where = "frame " + std::to_string(f);
-    if (!frame.is_object()) Fail(origin, where + ": expected an object");
-    for (const auto& item : frame.items()) {
-      if (item.key() != "root_position" && item.key() != "root_rotation" &&
-          item.key() != "rotations") {
-        Fail(origin, where + ": unknown field '" + item.key() + "'");
-      }
-    }
-    Pose pose;
-    pose.root_position =
-        Numbers<3>(frame.value("root_position", json()), origin, where + ": root_position");
-    pose.root_rotation =
-        Numbers<4>(frame.value("root_rotation", json()), origin, where + ": root_rotation");
-    pose.joint_rotations.assign(skeleton.size(), kIdentityQuat);
-    const json& rotations = frame.value("rotations", json());
-    if (!rotations.is_array() || rotations.size() != slots.size()) {
-      Fail(origin, where + ": rotations: expected " + std::to_string(slots.size()) +
-                       " quaternions (one per entry of \"joints\"), got " +
-                       (rotations.is_array() ? std::to_string(rotations.size()) : "none"));
-    }
-    for (size_t j = 0; j < slots.size(); ++j) {
-      pose.joint_rotations[slots[j]] =
-          Numbers<4>(rotations[j], origin, where + ": rotations: " + skeleton[slots[j]].name);
-    }
-    frames.push_back(std::move(pose));
+    frames.push_back(ReadProjectFrame(frame, where, slots, origin));
   }
   std::vector<double> durations(frames.size(), frame_duration);
   return Build(origin, name, loop, std::move(durations), std::move(frames), cycle);
@@ -218,9 +241,9 @@ MotionClip ParseMotion(const std::string& text, const std::string& origin) {
   try {
     doc = json::parse(text);
   } catch (const json::exception& e) {  // syntax, and numbers out of range (1e999)
-    Fail(origin, std::string("not valid JSON: ") + e.what());
+    ThrowConfigError(origin, std::string("not valid JSON: ") + e.what());
   }
-  if (!doc.is_object()) Fail(origin, "expected a JSON object");
+  if (!doc.is_object()) ThrowConfigError(origin, "expected a JSON object");
   if (doc.contains("Frames")) return ParseDeepMimic(doc, origin);
   return ParseProjectClip(doc, origin);
 }
@@ -282,4 +305,4 @@ void SaveClip(const MotionClip& clip, const std::string& description, const std:
   if (std::rename(tmp.c_str(), path.c_str()) != 0) throw ConfigError(path + ": rename failed");
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

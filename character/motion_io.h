@@ -3,9 +3,9 @@
 
 #include <string>
 
-#include "actor/sim/motion_clip.h"
+#include "character/motion_clip.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 // Reads a clip in the project's format (JSON; see assets/motions/README.md) or, recognised by
 // its "Frames" key, a DeepMimic motion file (Y-up, converted to this project's Z-up frame).
@@ -24,4 +24,4 @@ void SaveClip(const MotionClip& clip, const std::string& description, const std:
 Vec3 FromYUp(const Vec3& v);
 Quat FromYUp(const Quat& q);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -1,11 +1,11 @@
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
 #include <cmath>
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 Quat Multiply(const Quat& a, const Quat& b) {
   Quat r;
@@ -115,4 +115,4 @@ double WrapAngle(double radians) { return std::remainder(radians, 2 * M_PI); }
 
 Quat HeadingOf(const Quat& rotation) { return AxisAngle({0, 0, 1}, YawOf(rotation)); }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -4,9 +4,10 @@
 
 #include <array>
 
-namespace ragdoll::sim {
+#include "character/vector.h"
 
-using Vec3 = std::array<double, 3>;
+namespace ragdoll::character {
+
 using Quat = std::array<double, 4>;  // (w, x, y, z), unit norm
 
 inline constexpr Quat kIdentityQuat = {1, 0, 0, 0};
@@ -50,4 +51,4 @@ double BodyYawOf(const Quat& rotation);
 // An angle wrapped to [-pi, pi].
 double WrapAngle(double radians);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -1,6 +1,6 @@
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 const std::vector<SkeletonJoint>& Humanoid3dJoints() {
   static const std::vector<SkeletonJoint> joints = {
@@ -22,4 +22,4 @@ int FindJoint(const std::string& name) {
   return -1;
 }
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

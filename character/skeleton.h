@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 
 enum class JointType { kSpherical, kRevolute };
 
@@ -22,4 +22,4 @@ const std::vector<SkeletonJoint>& Humanoid3dJoints();
 // Index of the named joint in Humanoid3dJoints(), or -1.
 int FindJoint(const std::string& name);
 
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -1,6 +1,7 @@
 // `ragdoll bake RUN --out FILE`: the trained policy's simulated performance written as an
 // animation of the character's skeleton (BVH, glTF binary, or the project's clip format), for
-// animators and engines without a physics runtime.
+// animators and engines without a physics runtime. The command parses its options; the baking is
+// exports/bake.h.
 #pragma once
 
 #include <CLI/CLI.hpp>

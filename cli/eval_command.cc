@@ -1,7 +1,5 @@
 #include "cli/eval_command.h"
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -10,15 +8,16 @@
 #include <memory>
 #include <optional>
 
-#include "actor/command_evaluation.h"
-#include "actor/evaluation.h"
-#include "actor/push_evaluation.h"
-#include "actor/recovery_evaluation.h"
-#include "actor/sim/character.h"
-#include "actor/sim/motion_io.h"
-#include "actor/sim/motion_set.h"
-#include "cli/trained_policy.h"
+#include "character/character.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
+#include "eval/command_evaluation.h"
+#include "eval/eval_file.h"
+#include "eval/evaluation.h"
+#include "eval/push_evaluation.h"
+#include "eval/recovery_evaluation.h"
+#include "run/trained_policy.h"
+#include "sim/motion_set.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -28,40 +27,27 @@ struct EvalOptions {
   int episodes = 20;
   uint64_t seed = 12345;
   bool pushes = false;
-  actor::PushConfig push;
-  actor::PushProtocolConfig protocol;
-  actor::RecoveryConfig recovery{0};  // no recovery trials unless asked
-  std::string commands;  // a command script file, "random", or empty (no scripted runs)
-  actor::CommandEvalConfig command_eval;
+  eval::PushConfig push;
+  eval::PushProtocolConfig protocol;
+  eval::RecoveryConfig recovery{0};  // no recovery trials unless asked
+  std::string commands;              // a command script file, "random", or empty (no scripted runs)
+  eval::CommandEvalConfig command_eval;
 };
 
 // Scripted steering runs (--commands), which need a policy trained with a steering task.
-actor::CommandEvalResult EvaluateScripts(const TrainedPolicy& policy, EvalOptions& o) {
+eval::CommandEvalResult EvaluateScripts(const run::TrainedPolicy& policy, EvalOptions& o) {
   const sim::EnvConfig& env = policy.experiment.environment;
   if (!env.steering.enabled()) {
     throw ConfigError("--commands: " + policy.checkpoint +
                       " was not trained with a steering task (environment.steering)");
   }
-  auto character = sim::Character::Load(env.character, env.physics_dt());
+  auto character = character::Character::Load(env.character, env.physics_dt());
   o.command_eval.random = o.commands == "random";
   if (!o.command_eval.random) {
     o.command_eval.script =
-        actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
+        eval::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
   }
-  return actor::EvaluateCommands(env, policy.snapshot, o.command_eval, o.seed);
-}
-
-// A run folder keeps its latest evaluation, written whole or not at all.
-void WriteRunEvaluation(const std::filesystem::path& run, const std::string& json) {
-  const auto path = run / "eval.json";
-  const auto temporary = std::filesystem::path(path.string() + ".tmp");
-  {
-    std::ofstream out(temporary);
-    out << json << "\n";
-    if (!out.flush()) throw std::runtime_error(temporary.string() + ": cannot write");
-  }
-  std::filesystem::rename(temporary, path);
-  std::fprintf(stderr, "wrote %s\n", path.c_str());
+  return eval::EvaluateCommands(env, policy.snapshot, o.command_eval, o.seed);
 }
 
 // A clip that plays once is judged as it is used: the whole of it from its first frame. Episodes
@@ -69,35 +55,34 @@ void WriteRunEvaluation(const std::filesystem::path& run, const std::string& jso
 // simulation and the mean action are deterministic, so one episode says it all; beside it, the
 // same episode with the reference's PD targets alone.
 struct WholeClip {
-  actor::EvaluationResult policy, tracking;
+  eval::EvaluationResult policy, tracking;
 };
 
-std::optional<WholeClip> EvaluateWholeClip(const sim::EnvConfig& env, const TrainedPolicy& policy,
-                                           uint64_t seed) {
+std::optional<WholeClip> EvaluateWholeClip(const sim::EnvConfig& env,
+                                           const run::TrainedPolicy& policy, uint64_t seed) {
   // Steering and recovery switch clips; a looping clip has no first frame to be judged from.
-  if (env.steering.enabled() || env.recovery.enabled() || sim::LoadMotion(env.motion).loop()) {
+  if (env.steering.enabled() || env.recovery.enabled() ||
+      character::LoadMotion(env.motion).loop()) {
     return std::nullopt;
   }
   sim::EnvConfig from_start = env;
   from_start.random_start = false;
   from_start.start_phase = 0;
-  return WholeClip{actor::Evaluate(from_start, policy.snapshot, 1, seed),
-                   actor::EvaluateReferenceTracking(from_start, 1, seed)};
+  return WholeClip{eval::Evaluate(from_start, policy.snapshot, 1, seed),
+                   eval::EvaluateReferenceTracking(from_start, 1, seed)};
 }
 
-nlohmann::json EpisodeJson(const actor::EvaluationResult& r) {
-  return {{"normalized_return", r.normalized_return},
-          {"episode_length", r.episode_length},
-          {"fell", r.fall_rate > 0}};
+eval::EpisodeFigures FiguresOf(const eval::EvaluationResult& r) {
+  return {r.normalized_return, r.episode_length, r.fall_rate > 0};
 }
 
 int RunEval(EvalOptions& o) {
-  TrainedPolicy policy = LoadTrainedPolicy(o.target);
+  run::TrainedPolicy policy = run::LoadTrainedPolicy(o.target);
   const sim::EnvConfig& env = policy.experiment.environment;
-  actor::EvaluationResult r = actor::Evaluate(env, policy.snapshot, o.episodes, o.seed);
+  eval::EvaluationResult r = eval::Evaluate(env, policy.snapshot, o.episodes, o.seed);
   const std::optional<WholeClip> whole = EvaluateWholeClip(env, policy, o.seed);
-  std::unique_ptr<actor::RobustnessResult> robustness;
-  std::unique_ptr<actor::PushProtocolResult> protocol;
+  std::unique_ptr<eval::RobustnessResult> robustness;
+  std::unique_ptr<eval::PushProtocolResult> protocol;
   if (o.pushes) {
     o.protocol.body = o.push.body;
     o.protocol.trials = o.push.trials;
@@ -108,36 +93,33 @@ int RunEval(EvalOptions& o) {
       o.push.command = "walk";
     }
     o.protocol.command = o.push.command;
-    protocol = std::make_unique<actor::PushProtocolResult>(
-        actor::EvaluatePushProtocol(env, policy.snapshot, o.protocol, o.seed));
-    robustness = std::make_unique<actor::RobustnessResult>(
-        actor::EvaluatePushes(env, policy.snapshot, o.push, o.seed));
+    protocol = std::make_unique<eval::PushProtocolResult>(
+        eval::EvaluatePushProtocol(env, policy.snapshot, o.protocol, o.seed));
+    robustness = std::make_unique<eval::RobustnessResult>(
+        eval::EvaluatePushes(env, policy.snapshot, o.push, o.seed));
   }
-  std::unique_ptr<actor::RecoveryResult> recovery;
+  std::unique_ptr<eval::RecoveryResult> recovery;
   if (o.recovery.trials > 0) {
-    recovery = std::make_unique<actor::RecoveryResult>(
-        actor::EvaluateRecovery(env, policy.snapshot, o.recovery, o.seed));
+    recovery = std::make_unique<eval::RecoveryResult>(
+        eval::EvaluateRecovery(env, policy.snapshot, o.recovery, o.seed));
   }
-  std::unique_ptr<actor::CommandEvalResult> scripted;
+  std::unique_ptr<eval::CommandEvalResult> scripted;
   if (!o.commands.empty()) {
-    scripted = std::make_unique<actor::CommandEvalResult>(EvaluateScripts(policy, o));
+    scripted = std::make_unique<eval::CommandEvalResult>(EvaluateScripts(policy, o));
   }
-  // Which checkpoint was evaluated goes with the figures (`ragdoll report` shows it).
-  nlohmann::json result = nlohmann::json::parse(r.ToJson(robustness.get()));
-  if (protocol) result["perturbation"]["protocol"] = nlohmann::json::parse(protocol->ToJson());
-  if (recovery) result["recovery"] = nlohmann::json::parse(recovery->ToJson());
+  eval::EvaluationSections sections;
+  sections.episodes = r.ToJson(robustness.get());
+  if (protocol) sections.push_protocol = protocol->ToJson();
+  if (recovery) sections.recovery = recovery->ToJson();
   if (scripted) {
-    result["commands"] = nlohmann::json::parse(scripted->ToJson());
-    result["commands"]["script"] = o.commands;
+    sections.commands = scripted->ToJson();
+    sections.command_script = o.commands;
   }
-  if (whole) {
-    result["whole_clip"] = EpisodeJson(whole->policy);
-    result["whole_clip"]["reference_tracking"] = EpisodeJson(whole->tracking);
-  }
-  result["checkpoint"] = policy.checkpoint;
-  result["policy_version"] = policy.version;
-  result["samples"] = policy.samples;
-  const std::string json = result.dump(2);
+  if (whole) sections.whole_clip = {FiguresOf(whole->policy), FiguresOf(whole->tracking)};
+  sections.checkpoint = policy.checkpoint;
+  sections.policy_version = policy.version;
+  sections.samples = policy.samples;
+  const std::string json = eval::ComposeEvaluationJson(sections);
   std::cout << json << "\n";
   std::fprintf(stderr,
                "%s (policy v%lld, %lld samples): normalised return %.3f, length %.1f steps, "
@@ -146,7 +128,7 @@ int RunEval(EvalOptions& o) {
                static_cast<long long>(policy.samples), r.normalized_return, r.episode_length,
                r.fall_rate, r.episodes);
   if (whole) {
-    auto line = [](const actor::EvaluationResult& e) {
+    auto line = [](const eval::EvaluationResult& e) {
       char text[120];
       std::snprintf(text, sizeof text, "normalised return %.3f over %.0f steps, %s",
                     e.normalized_return, e.episode_length, e.fall_rate > 0 ? "fell" : "no fall");
@@ -160,7 +142,11 @@ int RunEval(EvalOptions& o) {
   if (recovery) std::fprintf(stderr, "%s", recovery->ToTable().c_str());
   if (scripted) std::fprintf(stderr, "%s", scripted->ToTable().c_str());
   if (!o.json_out.empty()) std::ofstream(o.json_out) << json << "\n";
-  if (std::filesystem::is_directory(o.target)) WriteRunEvaluation(o.target, json);
+  if (std::filesystem::is_directory(o.target)) {
+    eval::WriteEvaluationFile(o.target, json);
+    std::fprintf(stderr, "wrote %s\n",
+                 (std::filesystem::path(o.target) / eval::kEvaluationFile).c_str());
+  }
   return 0;
 }
 

@@ -1,8 +1,9 @@
-// `ragdoll export RUN_OR_CHECKPOINT --onnx FILE [--value] [--sidecar FILE]`: the trained policy
-// as an ONNX model for game engines (cli/onnx_export.h), and beside it a JSON sidecar with
-// everything an engine integration needs to feed and drive it: the observation's layout, each
-// action axis and how an action becomes a PD target, the control rate, the character and clip
-// (docs/engine-integration.md).
+// `ragdoll export RUN_OR_CHECKPOINT --onnx FILE [--value] [--sidecar FILE] [--run FOLDER]`: the
+// trained policy as an ONNX model for game engines (exports/onnx_export.h), and beside it a JSON
+// sidecar with everything an engine integration needs to feed and drive it: the observation's
+// layout, each action axis and how an action becomes a PD target, the control rate, the character
+// and clip (exports/sidecar.h, docs/engine-integration.md); or the run as a folder to ship
+// (exports/run_folder.h). The command parses its arguments and reports; exports/ does the work.
 #pragma once
 
 #include <CLI/CLI.hpp>

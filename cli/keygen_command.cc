@@ -5,7 +5,7 @@
 #include <memory>
 #include <string>
 
-#include "common/curve.h"
+#include "common/keys.h"
 
 namespace ragdoll::cli {
 namespace {

@@ -1,5 +1,5 @@
 // `ragdoll keygen [NAME] [--role broker|actor|learner] [--keys DIR] [--force]`: CURVE key pairs
-// in ZeroMQ's certificate format, laid out as the roles look for them (common/curve.h).
+// in ZeroMQ's certificate format, laid out as the roles look for them (common/keys.h).
 // Without NAME: the three pairs one training needs (broker, actor, learner).
 #pragma once
 

@@ -19,14 +19,16 @@
 #include <thread>
 #include <vector>
 
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_io.h"
-#include "cli/experiment.h"
+#include "character/motion_io.h"
 #include "cli/motion_commands.h"
 #include "common/config_section.h"
+#include "common/process.h"
+#include "common/run_config.h"
 #include "learner/checkpoint_store.h"
 #include "motion/clip_kind.h"
 #include "motion/clip_report.h"
+#include "run/experiment.h"
+#include "sim/imitation_env.h"
 
 namespace ragdoll::cli {
 namespace fs = std::filesystem;
@@ -65,23 +67,9 @@ bool PortFree(int port) {
 
 struct Child {
   std::string role;
-  pid_t pid = -1;
-  bool running = false;
-  int status = 0;
+  std::unique_ptr<ChildProcess> process;  // null when it could not be started
+  bool running = false;                   // until its end has been handled
 };
-
-pid_t Spawn(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid = fork();
-  if (pid == 0) {
-    execv("/proc/self/exe", argv.data());
-    std::perror("ragdoll train: exec");
-    _exit(127);
-  }
-  return pid;
-}
 
 std::string DefaultRunId(const std::string& name) {
   std::time_t now = std::time(nullptr);
@@ -93,24 +81,19 @@ std::string DefaultRunId(const std::string& name) {
 // Sends SIGTERM to the running children of `role` and waits up to `seconds`, then SIGKILL.
 void Stop(std::vector<Child>& children, const std::string& role, double seconds) {
   for (auto& c : children) {
-    if (c.running && c.role.rfind(role, 0) == 0) kill(c.pid, SIGTERM);
+    if (c.running && c.role.rfind(role, 0) == 0) c.process->Signal(SIGTERM);
   }
-  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (auto& c : children) {
     if (!c.running || c.role.rfind(role, 0) != 0) continue;
-    while (c.running) {
-      if (waitpid(c.pid, &c.status, WNOHANG) == c.pid) {
-        c.running = false;
-      } else if (std::chrono::steady_clock::now() > deadline) {
-        std::fprintf(stderr, "ragdoll train: %s did not stop in %.0f s; killing it\n",
-                     c.role.c_str(), seconds);
-        kill(c.pid, SIGKILL);
-        waitpid(c.pid, &c.status, 0);
-        c.running = false;
-      } else {
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      }
+    const std::chrono::duration<double> left = deadline - std::chrono::steady_clock::now();
+    if (!c.process->WaitFor(left.count())) {
+      std::fprintf(stderr, "ragdoll train: %s did not stop in %.0f s; killing it\n", c.role.c_str(),
+                   seconds);
+      c.process->Signal(SIGKILL);
+      c.process->Wait();
     }
+    c.running = false;
   }
 }
 
@@ -123,10 +106,10 @@ void Stop(std::vector<Child>& children, const std::string& role, double seconds)
 void CheckInitFrom(const std::string& source, const sim::EnvConfig& env) {
   const std::string checkpoint = learner::FindCheckpoint(source);
   if (checkpoint.empty()) throw ConfigError("--init-from " + source + ": no checkpoint found");
-  const fs::path config = fs::path(checkpoint).parent_path().parent_path() / "config.yaml";
+  const fs::path config = RunConfigPath(fs::path(checkpoint).parent_path().parent_path().string());
   if (!fs::exists(config)) return;  // a checkpoint on its own: the learner checks the sizes
   const std::vector<std::string> from =
-      sim::MakeEnvSpec(ReadExperiment(config.string()).environment).observation_names;
+      sim::MakeEnvSpec(run::ReadExperiment(config.string()).environment).observation_names;
   const std::vector<std::string> to = sim::MakeEnvSpec(env).observation_names;
   const auto [mismatch, unused] = std::mismatch(from.begin(), from.end(), to.begin(), to.end());
   if (mismatch != from.end()) {
@@ -160,11 +143,10 @@ void CheckBeforeStart(Endpoints& endpoints, const std::string& keys, bool insecu
 
 // The run folder with the effective configuration in it.
 fs::path MakeRunFolder(const TrainOptions& options, const std::string& run_id,
-                       const Experiment& e) {
+                       const run::Experiment& e) {
   const fs::path run_dir = fs::path(options.runs_dir) / run_id;
   fs::create_directories(run_dir);
-  std::ofstream out(run_dir / "config.yaml");
-  out << e.text;
+  WriteRunConfig(run_dir.string(), e.text, /*replace=*/true);
   return run_dir;
 }
 
@@ -212,13 +194,12 @@ class Supervisor {
   // Waits on the children until `stop` or the learner's end; the run's exit code.
   int Watch(const std::atomic<bool>& stop) {
     while (!stop.load()) {
-      int status = 0;
-      pid_t pid = waitpid(-1, &status, WNOHANG);
-      if (pid <= 0) {
+      Child* child = FirstEnded();
+      if (child == nullptr) {
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
         continue;
       }
-      const Exit ended = Reap(pid, status, stop);
+      const Exit ended = Reap(*child, stop);
       if (ended.broker_failed) {
         if (!RestartBroker()) return 1;
         continue;
@@ -259,38 +240,51 @@ class Supervisor {
     return a;
   }
 
+  // `ragdoll ROLE ...` again, in this process group: Ctrl-C at the terminal reaches every role.
   void Launch(const std::string& role, const std::vector<std::string>& args) {
     Child c;
     c.role = role;
-    c.pid = Spawn(args);
-    c.running = c.pid > 0;
-    children_.push_back(c);
+    ChildProcess::Options options;
+    options.program = kThisProgram;
+    options.exec_error = "ragdoll train: exec: %m\n";
+    try {
+      c.process = std::make_unique<ChildProcess>(args, options);
+    } catch (const std::runtime_error&) {
+      // No process (fork failed): as one that ended unseen; the run goes on without it.
+    }
+    c.running = c.process != nullptr;
+    children_.push_back(std::move(c));
   }
 
-  // Records the exit of `pid` and says what it means: a failed single learner fails the run.
-  Exit Reap(pid_t pid, int status, const std::atomic<bool>& stop) {
-    Exit ended;
+  // The first child whose end has not been handled yet; null while all run.
+  Child* FirstEnded() {
     for (auto& c : children_) {
-      if (c.pid != pid) continue;
-      c.running = false;
-      c.status = status;
-      bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-      if (c.role.rfind("learner", 0) == 0) {
-        if (!ok && replicas_ > 1 && !stop.load()) {
-          ended.group_broke = true;
-          std::fprintf(stderr, "ragdoll train: %s failed (%s)\n", c.role.c_str(),
-                       WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit");
-        } else if (!ok) {
-          exit_code_ = 1;
-          std::fprintf(stderr, "ragdoll train: the learner failed\n");
-        }
-      } else {
-        std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
-                     WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
-                     c.role == "broker" ? "" : "; training continues with the others");
-        // Without its broker nothing trains, and the others would wait on it forever.
-        if (c.role == "broker" && !stop.load()) ended.broker_failed = true;
+      if (c.running && !c.process->Running()) return &c;
+    }
+    return nullptr;
+  }
+
+  // Records the end of `c` and says what it means: a failed single learner fails the run.
+  Exit Reap(Child& c, const std::atomic<bool>& stop) {
+    Exit ended;
+    c.running = false;
+    const int status = c.process->status();
+    bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (c.role.rfind("learner", 0) == 0) {
+      if (!ok && replicas_ > 1 && !stop.load()) {
+        ended.group_broke = true;
+        std::fprintf(stderr, "ragdoll train: %s failed (%s)\n", c.role.c_str(),
+                     WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit");
+      } else if (!ok) {
+        exit_code_ = 1;
+        std::fprintf(stderr, "ragdoll train: the learner failed\n");
       }
+    } else {
+      std::fprintf(stderr, "ragdoll train: %s exited (%s)%s\n", c.role.c_str(),
+                   WIFSIGNALED(status) ? strsignal(WTERMSIG(status)) : "exit",
+                   c.role == "broker" ? "" : "; training continues with the others");
+      // Without its broker nothing trains, and the others would wait on it forever.
+      if (c.role == "broker" && !stop.load()) ended.broker_failed = true;
     }
     return ended;
   }
@@ -357,7 +351,7 @@ TrainOptions PrepareMotionRun(TrainOptions options) {
   }
   ImportedMotion imported = ImportMotionFile(options.motion);
   for (const auto& note : imported.notes) std::fprintf(stderr, "  %s\n", note.c_str());
-  auto character = sim::Character::Load(sim::DefaultCharacterPath());
+  auto character = character::Character::Load(character::DefaultCharacterPath());
   const motion::ClipKindChoice kind =
       motion::ClassifyClip(imported.clip, motion::InspectClip(imported.clip, *character));
   const std::string template_path = options.config.empty()
@@ -375,7 +369,7 @@ TrainOptions PrepareMotionRun(TrainOptions options) {
   }
   tree["environment"]["motion"] = "motion.json";
   fs::create_directories(run_dir);
-  sim::SaveClip(imported.clip, imported.description, (run_dir / "motion.json").string());
+  character::SaveClip(imported.clip, imported.description, (run_dir / "motion.json").string());
   YAML::Emitter out;
   out << tree;
   std::ofstream(config) << "# " << kind.name << " from " << options.motion << ", template "
@@ -391,7 +385,7 @@ TrainOptions PrepareMotionRun(TrainOptions options) {
 
 int RunTrain(const TrainOptions& given, const std::atomic<bool>& stop) {
   const TrainOptions options = given.motion.empty() ? given : PrepareMotionRun(given);
-  Experiment e = ReadExperiment(options.config, options.port_base);
+  run::Experiment e = run::ReadExperiment(options.config, options.port_base);
   if (!options.init_from.empty() && !options.resume)
     CheckInitFrom(options.init_from, e.environment);
   const std::string keys = options.keys.empty() ? e.keys_dir : options.keys;
@@ -404,7 +398,7 @@ int RunTrain(const TrainOptions& given, const std::atomic<bool>& stop) {
                e.environment.contacts_from_clip ? "auto: the feet and what the clip puts there"
                                                 : "from the config",
                contacts.c_str());
-  const int actors = options.actors > 0 ? options.actors : ResolveActorCount(e.actor_count);
+  const int actors = options.actors > 0 ? options.actors : run::ResolveActorCount(e.actor_count);
   const int replicas = options.replicas > 0 ? options.replicas : e.learner.replicas;
   std::fprintf(stderr,
                "ragdoll train: run %s in %s: 1 broker, %d learner%s, %d actor%s x %d "

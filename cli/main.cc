@@ -11,12 +11,14 @@
 //   ragdoll keygen [NAME]                CURVE keys for authenticated, encrypted transport
 //   ragdoll verify RUN_OR_CHECKPOINT...  checkpoints whole, loadable, finite
 //   ragdoll doctor [CONFIG]              this machine's limits and the training's ratios to them
+//   ragdoll bake RUN_OR_CHECKPOINT --out FILE.bvh|.fbx|.glb   the simulated motion, for a DCC
 #include <signal.h>
 #include <CLI/CLI.hpp>
 
 #include <atomic>
 #include <cstdio>
 #include <functional>
+#include <string>
 
 #include "cli/bake_command.h"
 #include "cli/doctor_command.h"
@@ -48,6 +50,24 @@ void InstallSignalHandlers() {
   sigaction(SIGTERM, &action, nullptr);
 }
 
+// CLI11 answers `--help` before it notices an unknown command, so `ragdoll typo --help` would
+// print the main help and succeed; the command word is checked first.
+bool IsKnownCommand(const CLI::App& app, const std::string& word) {
+  if (word.empty() || word[0] == '-') return true;
+  for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) {
+    if (command->check_name(word)) return true;
+  }
+  return false;
+}
+
+std::string CommandNames(const CLI::App& app) {
+  std::string names;
+  for (const CLI::App* command : app.get_subcommands([](const CLI::App*) { return true; })) {
+    names += (names.empty() ? "" : ", ") + command->get_name();
+  }
+  return names;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -69,6 +89,11 @@ int main(int argc, char** argv) {
                                            cli::AddExportCommand(app),
                                            cli::AddDoctorCommand(app),
                                            cli::AddBakeCommand(app)};
+  if (argc > 1 && !IsKnownCommand(app, argv[1])) {
+    std::fprintf(stderr, "ragdoll: unknown command '%s' (commands: %s)\n", argv[1],
+                 CommandNames(app).c_str());
+    return 2;
+  }
   CLI11_PARSE(app, argc, argv);
   InstallSignalHandlers();
   try {

@@ -7,7 +7,7 @@
 #include <iostream>
 #include <memory>
 
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 #include "motion/auto_mapping.h"
 #include "motion/bvh.h"
 #include "motion/clip_kind.h"
@@ -30,12 +30,12 @@ struct MotionOptions {
 };
 
 std::string CharacterPath(const std::string& given) {
-  return given.empty() ? sim::DefaultCharacterPath() : given;
+  return given.empty() ? character::DefaultCharacterPath() : given;
 }
 
 // The import's work, without its output: the clip, the lines it prints, and its timings.
 struct ImportResult {
-  sim::MotionClip clip;
+  character::MotionClip clip;
   std::vector<std::string> notes;
   std::string description;  // "imported from FILE with mapping M"
   std::string summary;      // the source and the clip, one line
@@ -49,19 +49,19 @@ ImportResult ImportWith(const MotionOptions& o, const std::string& output) {
       o.input, o.animation, &notes,
       o.bvh_reader == "assimp" ? motion::BvhReader::kAssimp : motion::BvhReader::kRagdoll);
   auto t1 = Clock::now();
-  auto character = sim::Character::Load(CharacterPath(o.character));
+  auto character = character::Character::Load(CharacterPath(o.character));
   motion::JointMapping mapping = motion::ResolveMapping(o.mapping, source, &notes);
   motion::ImportOptions options = o.import;
   options.feet =
       o.feet == "rest" ? motion::ImportOptions::Feet::kRest : motion::ImportOptions::Feet::kFloor;
-  sim::MotionClip clip = motion::Retarget(source, mapping, *character, options, &notes);
+  character::MotionClip clip = motion::Retarget(source, mapping, *character, options, &notes);
   motion::RootMotionReport root;
   clip = motion::ReconstructRootMotion(clip, *character, motion::ParseRootMotion(o.root_motion),
                                        &root);
   if (o.root_motion != "keep") notes.push_back(root.Summary());
   if (o.fix_feet != 0) {
     motion::FootCleanupReport fixed;
-    sim::MotionClip cleaned =
+    character::MotionClip cleaned =
         motion::FixFeet(clip, *character, motion::FootCleanupOptions{}, &fixed);
     char line[480];
     if (o.fix_feet == 1 || fixed.Needed()) {
@@ -113,10 +113,10 @@ int Import(const MotionOptions& o) {
     std::fprintf(
         stderr, "loop: the last frame is the first pose again: --loop marks the clip as a cycle\n");
   }
-  sim::SaveClip(r.clip, r.description, o.output);
+  character::SaveClip(r.clip, r.description, o.output);
   std::fprintf(stderr, "%s\n", r.summary.c_str());
   if (o.inspect_after) {
-    auto character = sim::Character::Load(CharacterPath(o.character));
+    auto character = character::Character::Load(CharacterPath(o.character));
     std::cout << motion::InspectClip(r.clip, *character).ToText();
   }
   std::fprintf(stderr, "train it: ragdoll train --motion %s\n", o.output.c_str());
@@ -124,8 +124,8 @@ int Import(const MotionOptions& o) {
 }
 
 int Export(const MotionOptions& o) {
-  auto character = sim::Character::Load(CharacterPath(o.character));
-  sim::MotionClip clip = sim::LoadMotion(o.input);
+  auto character = character::Character::Load(CharacterPath(o.character));
+  character::MotionClip clip = character::LoadMotion(o.input);
   motion::ExportOptions e;
   e.rotation_order = o.order;
   e.units_per_metre = o.units == "cm" ? 100 : 1;
@@ -142,41 +142,17 @@ int Export(const MotionOptions& o) {
 }
 
 int Inspect(const MotionOptions& o) {
-  auto character = sim::Character::Load(CharacterPath(o.character));
-  sim::MotionClip clip = sim::LoadMotion(o.input);
+  auto character = character::Character::Load(CharacterPath(o.character));
+  character::MotionClip clip = character::LoadMotion(o.input);
   motion::ClipReport report = motion::InspectClip(clip, *character);
   std::cout << report.ToText();
   if (!o.json.empty()) std::ofstream(o.json) << report.ToJson() << "\n";
   return 0;
 }
 
-}  // namespace
-
-ImportedMotion ImportMotionFile(const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  if (ext == ".json" || ext == ".txt") {
-    sim::MotionClip clip = sim::LoadMotion(path);
-    return {clip, {}, "the clip " + std::filesystem::path(path).filename().string()};
-  }
-  MotionOptions o;
-  o.input = path;
-  ImportResult r = ImportWith(o, "the run folder");
-  r.notes.push_back(r.summary);
-  std::string why;
-  if (motion::ClosesALoop(r.clip, &why)) {
-    r.clip = motion::AsLoop(r.clip);
-    r.notes.push_back("loop: yes, " + why);
-  } else {
-    r.notes.push_back("loop: no, " + why);
-  }
-  return {std::move(r.clip), std::move(r.notes), r.description};
-}
-
-std::function<int()> AddMotionCommands(CLI::App& app) {
-  auto o = std::make_shared<MotionOptions>();
-  auto* motion = app.add_subcommand("motion", "import, export and inspect motion clips");
-  motion->require_subcommand(1);
-
+// `motion import FILE --out CLIP`: which file and animation, how its joints map onto the
+// character, and which frames become the clip.
+CLI::App* AddImport(CLI::App* motion, const std::shared_ptr<MotionOptions>& o) {
   auto* import = motion->add_subcommand(
       "import", "retarget a BVH, FBX, glTF/GLB or COLLADA animation onto the character");
   import->add_option("file", o->input, "motion file (.bvh, .fbx, .gltf, .glb, .dae)")
@@ -207,58 +183,103 @@ std::function<int()> AddMotionCommands(CLI::App& app) {
   import->add_option("--last", o->import.last_frame, "last frame to use (default: the last)");
   import->add_option("--fps", o->import.fps, "resample to this frame rate")
       ->check(CLI::PositiveNumber);
+  return import;
+}
+
+// `motion import`'s clean-ups and adjustments of the retargeted clip: feet, root motion, mirror,
+// loop, scale, and the character it lands on.
+void AddImportAdjustments(CLI::App* import, const std::shared_ptr<MotionOptions>& o) {
+  auto always = [o] { o->fix_feet = 1; };
+  auto never = [o] { o->fix_feet = 0; };
   auto* fix = import->add_flag_callback(
-      "--fix-feet", [o] { o->fix_feet = 1; },
+      "--fix-feet", always,
       "clean up the feet even where the clip does not need it (by default the import does when "
       "planted feet float, sink or slide on the character): solve the legs so that planted feet "
       "stand on the floor and hold still, the pelvis lowered where a leg cannot reach");
-  import
-      ->add_flag_callback(
-          "--no-fix-feet", [o] { o->fix_feet = 0;
-}, "keep the feet as the retarget leaves them")
+  import->add_flag_callback("--no-fix-feet", never, "keep the feet as the retarget leaves them")
       ->excludes(fix);
-import
-    ->add_option("--root-motion", o->root_motion,
-                 "auto: rebuild the root's travel from the planted feet when the clip was "
-                 "exported in place (feet sliding under a root that stays put); feet: always; "
-                 "keep: never")
-    ->check(CLI::IsMember({"auto", "feet", "keep"}))
-    ->capture_default_str();
-import->add_flag("--mirror", o->import.mirror, "swap left and right");
-import->add_flag("--loop", o->import.loop, "mark the clip as looping");
-import->add_option("--scale", o->import.scale, "metres per BVH unit (default: from the leg length)")
-    ->check(CLI::PositiveNumber);
-import->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+  import
+      ->add_option("--root-motion", o->root_motion,
+                   "auto: rebuild the root's travel from the planted feet when the clip was "
+                   "exported in place (feet sliding under a root that stays put); feet: always; "
+                   "keep: never")
+      ->check(CLI::IsMember({"auto", "feet", "keep"}))
+      ->capture_default_str();
+  import->add_flag("--mirror", o->import.mirror, "swap left and right");
+  import->add_flag("--loop", o->import.loop, "mark the clip as looping");
+  import
+      ->add_option("--scale", o->import.scale, "metres per BVH unit (default: from the leg length)")
+      ->check(CLI::PositiveNumber);
+  import->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+}
 
-auto* exporter = motion->add_subcommand("export", "write a clip as BVH (for Blender, Maya...)");
-exporter->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
-    ->required()
-    ->check(CLI::ExistingFile);
-exporter->add_option("--out", o->output, "BVH file to write")->required();
-exporter->add_option("--naming", o->naming, "joint names: a mapping preset or YAML file")
-    ->capture_default_str();
-exporter->add_option("--order", o->order, "rotation channel order")->capture_default_str();
-exporter->add_option("--units", o->units, "m or cm")
-    ->check(CLI::IsMember({"m", "cm"}))
-    ->capture_default_str();
-exporter->add_option("--up", o->up, "y or z")
-    ->check(CLI::IsMember({"y", "z"}))
-    ->capture_default_str();
-exporter->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+// `motion export CLIP --out FILE.bvh`: the BVH's joint names, channel order, units and up axis.
+CLI::App* AddExport(CLI::App* motion, const std::shared_ptr<MotionOptions>& o) {
+  auto* exporter = motion->add_subcommand("export", "write a clip as BVH (for Blender, Maya...)");
+  exporter->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  exporter->add_option("--out", o->output, "BVH file to write")->required();
+  exporter->add_option("--naming", o->naming, "joint names: a mapping preset or YAML file")
+      ->capture_default_str();
+  exporter->add_option("--order", o->order, "rotation channel order")->capture_default_str();
+  exporter->add_option("--units", o->units, "m or cm")
+      ->check(CLI::IsMember({"m", "cm"}))
+      ->capture_default_str();
+  exporter->add_option("--up", o->up, "y or z")
+      ->check(CLI::IsMember({"y", "z"}))
+      ->capture_default_str();
+  exporter->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+  return exporter;
+}
 
-auto* inspect = motion->add_subcommand("inspect", "timing, travel, foot contact, problems");
-inspect->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
-    ->required()
-    ->check(CLI::ExistingFile);
-inspect->add_option("--json", o->json, "also write the report as JSON");
-inspect->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+// `motion inspect CLIP [--json FILE]`.
+CLI::App* AddInspect(CLI::App* motion, const std::shared_ptr<MotionOptions>& o) {
+  auto* inspect = motion->add_subcommand("inspect", "timing, travel, foot contact, problems");
+  inspect->add_option("clip", o->input, "clip (.json or DeepMimic .txt)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  inspect->add_option("--json", o->json, "also write the report as JSON");
+  inspect->add_option("--character", o->character, "character MJCF (default: the shipped one)");
+  return inspect;
+}
 
-return [=]() -> int {
-  if (!*motion) return -1;
-  if (*import) return Import(*o);
-  if (*exporter) return Export(*o);
-  return Inspect(*o);
-};
-}  // namespace ragdoll::cli
+}  // namespace
+
+ImportedMotion ImportMotionFile(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".json" || ext == ".txt") {
+    character::MotionClip clip = character::LoadMotion(path);
+    return {clip, {}, "the clip " + std::filesystem::path(path).filename().string()};
+  }
+  MotionOptions o;
+  o.input = path;
+  ImportResult r = ImportWith(o, "the run folder");
+  r.notes.push_back(r.summary);
+  std::string why;
+  if (motion::ClosesALoop(r.clip, &why)) {
+    r.clip = motion::AsLoop(r.clip);
+    r.notes.push_back("loop: yes, " + why);
+  } else {
+    r.notes.push_back("loop: no, " + why);
+  }
+  return {std::move(r.clip), std::move(r.notes), r.description};
+}
+
+std::function<int()> AddMotionCommands(CLI::App& app) {
+  auto o = std::make_shared<MotionOptions>();
+  auto* motion = app.add_subcommand("motion", "import, export and inspect motion clips");
+  motion->require_subcommand(1);
+  auto* import = AddImport(motion, o);
+  AddImportAdjustments(import, o);
+  auto* exporter = AddExport(motion, o);
+  AddInspect(motion, o);
+  return [=]() -> int {
+    if (!*motion) return -1;
+    if (*import) return Import(*o);
+    if (*exporter) return Export(*o);
+    return Inspect(*o);
+  };
+}
 
 }  // namespace ragdoll::cli

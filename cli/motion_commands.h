@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/motion_clip.h"
+#include "character/motion_clip.h"
 
 namespace ragdoll::cli {
 
@@ -15,7 +15,7 @@ namespace ragdoll::cli {
 std::function<int()> AddMotionCommands(CLI::App& app);
 
 struct ImportedMotion {
-  sim::MotionClip clip;
+  character::MotionClip clip;
   std::vector<std::string> notes;  // what the import decided, a line each
   std::string description;         // where the clip came from
 };

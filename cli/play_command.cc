@@ -14,11 +14,11 @@
 #include <vector>
 
 #include "actor/rollout.h"
-#include "actor/sim/falls.h"
-#include "actor/sim/steering_task.h"
-#include "cli/render/renderer.h"
-#include "cli/trained_policy.h"
 #include "common/config_section.h"
+#include "render/renderer.h"
+#include "run/trained_policy.h"
+#include "sim/falls.h"
+#include "sim/steering_task.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -105,7 +105,7 @@ std::unique_ptr<std::FILE, FileCloser> OpenLog(const std::string& path) {
 // drawn when there is time.
 class PlaySession {
  public:
-  PlaySession(const PlayOptions& o, const TrainedPolicy& policy, const sim::EnvConfig& env)
+  PlaySession(const PlayOptions& o, const run::TrainedPolicy& policy, const sim::EnvConfig& env)
       : o_(o),
         policy_version_(policy.version),
         dt_(env.control_dt()),
@@ -221,7 +221,7 @@ class PlaySession {
     const double direction = 2 * M_PI * uniform_(rng_);
     const double force = impulse / (ticks * dt_);
     e_.SetExternalForce(body, {force * std::cos(direction), force * std::sin(direction), 0});
-    push_angle_ = sim::WrapAngle(direction - e_.heading());
+    push_angle_ = character::WrapAngle(direction - e_.heading());
     push_shown_ = impulse;
     pushed_now_ = impulse;
     pushed_body_ = body;
@@ -269,14 +269,14 @@ class PlaySession {
   }
 
   // The travel velocity steering measures, or the root's without steering, m/s.
-  sim::Vec3 Velocity() const {
+  character::Vec3 Velocity() const {
     if (steering_) return steering_->TravelVelocity();
     return {e_.data().qvel[0], e_.data().qvel[1], 0};
   }
   double DesiredHeading() const { return steering_ ? steering_->desired_heading() : e_.heading(); }
 
   void LogStep(const sim::StepResult& r) {
-    const sim::Vec3 v = Velocity();
+    const character::Vec3 v = Velocity();
     const bool standing =
         sim::PostureOf(e_.character(), e_.data(), stand_height_) == sim::Posture::kStanding;
     std::fprintf(
@@ -299,7 +299,7 @@ class PlaySession {
   }
 
   std::string Hud() const {
-    const sim::Vec3 v = Velocity();
+    const character::Vec3 v = Velocity();
     std::string name = motions_.entry(command_).name;
     const std::string& clip = motions_.entry(e_.reference_entry()).name;
     if (clip != name) name += " via " + clip;  // a transition clip plays
@@ -369,7 +369,7 @@ class PlaySession {
   std::unique_ptr<std::FILE, FileCloser> log_;
   KeyState keys_;
   render::Renderer renderer_;
-  sim::DataPtr reference_;
+  character::DataPtr reference_;
   std::vector<double> reference_qvel_;
   std::mt19937_64 rng_;
   std::uniform_real_distribution<double> uniform_{0.0, 1.0};
@@ -394,7 +394,7 @@ class PlaySession {
 };
 
 int Play(const PlayOptions& o, const std::atomic<bool>& stop) {
-  TrainedPolicy policy = LoadTrainedPolicy(o.target);
+  run::TrainedPolicy policy = run::LoadTrainedPolicy(o.target);
   sim::EnvConfig env = policy.experiment.environment;
   if (!env.steering.enabled()) {
     std::fprintf(stderr,

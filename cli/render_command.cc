@@ -8,15 +8,15 @@
 #include <cstdlib>
 #include <memory>
 
-#include "actor/command_evaluation.h"
 #include "actor/rollout.h"
-#include "actor/run_pushes.h"
-#include "actor/sim/motion_io.h"
-#include "actor/sim/steering_task.h"
-#include "cli/render/renderer.h"
-#include "cli/render/video.h"
-#include "cli/trained_policy.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
+#include "eval/command_evaluation.h"
+#include "eval/scripted_pushes.h"
+#include "render/renderer.h"
+#include "render/video.h"
+#include "run/trained_policy.h"
+#include "sim/steering_task.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -78,7 +78,7 @@ std::string SteeringCaption(const sim::ImitationEnv& e) {
                   reference.name.c_str());
     return text;
   }
-  const sim::Vec3 v = steering.TravelVelocity();
+  const character::Vec3 v = steering.TravelVelocity();
   // What the task holds the command back for: a stand after a get-up, a catch step.
   std::string held;
   if (steering.standing_after_get_up()) held = " (standing after the get-up)";
@@ -91,13 +91,11 @@ std::string SteeringCaption(const sim::ImitationEnv& e) {
   return text;
 }
 
-int Render(const RenderOptions& o) {
-  using Clock = std::chrono::steady_clock;
-  const bool with_policy = !o.target.empty();
-  std::unique_ptr<TrainedPolicy> policy;
+// The environment to render: the run's (its clip replaced by --clip), or without a run the
+// default character following --clip.
+sim::EnvConfig RenderEnvironment(const RenderOptions& o, const run::TrainedPolicy* policy) {
   sim::EnvConfig env;
-  if (with_policy) {
-    policy = std::make_unique<TrainedPolicy>(LoadTrainedPolicy(o.target));
+  if (policy) {
     env = policy->experiment.environment;
     if (!o.clip.empty()) env.motion = o.clip;
     if (!o.commands.empty() && !env.steering.enabled()) {
@@ -108,16 +106,127 @@ int Render(const RenderOptions& o) {
     if (!o.commands.empty()) throw ConfigError("render --commands: give a steering run");
     if (o.clip.empty()) throw ConfigError("render: give a run (or checkpoint), --clip, or both");
     env.motion = o.clip;
-    env.character = sim::DefaultCharacterPath();
+    env.character = character::DefaultCharacterPath();
   }
-  auto clip = sim::LoadMotion(env.motion);
-  auto character = sim::Character::Load(env.character, env.physics_dt());
+  return env;
+}
+
+// Draws frames into the video, counting them; a still keeps only the step it shows.
+struct FrameWriter {
+  render::Renderer& renderer;
+  render::VideoWriter& video;
+  int still_step;
+  int drawn = 0;
+
+  void Emit(int step, const mjData& sim, const mjData* reference, const std::string& c) {
+    if (video.single_frame() && step != still_step) return;
+    renderer.Draw(sim, reference, c);
+    video.Write(renderer.pixels());
+    ++drawn;
+  }
+};
+
+// The reference alone: the clip's poses on the character, no physics.
+void RenderReference(const character::Character& character, const character::MotionClip& clip,
+                     double fps, int steps, FrameWriter& frames) {
+  character::DataPtr d = character.MakeData();
+  for (int s = 0; s <= steps; ++s) {
+    const double t = s / fps;
+    character.PoseToQpos(clip.Sample(t), d->qpos);
+    mj_kinematics(character.model(), d.get());
+    frames.Emit(s, *d, nullptr, Caption(clip.name(), t, "reference only", -1, false));
+  }
+}
+
+// A steered path's first command: from `script`, which random commands or the first command
+// throughout fill when it has none. Returns the index of the next change.
+size_t StartCommands(const RenderOptions& o, const sim::EnvConfig& env, double seconds,
+                     actor::RolloutWorker& worker, eval::CommandScript& script) {
+  sim::ImitationEnv& e = worker.environment(0);
+  const sim::MotionSet& motions = e.motion_set();
+  if (o.commands == "random") {
+    script = eval::RandomCommandScript(motions, seconds, env.steering.command_interval_min,
+                                       env.steering.command_interval_max, o.seed);
+  } else if (script.changes.empty()) {
+    script.changes = {{0, motions.entry(motions.commands().front()).name}};
+  }
+  worker.SetCommandFirst(motions.Find(script.changes.front().command));
+  return 1;
+}
+
+// A policy frame's caption at run time `t`: clip, time, the return so far, then the command
+// (steering) and the push under way.
+std::string PolicyCaption(const sim::ImitationEnv& e, const std::string& label, bool fell,
+                          bool steering, const eval::ScriptedPushes& pushes, double t) {
+  const auto& ep = e.episode();
+  const double normalized =
+      ep.length > 0 ? ep.episode_return / (e.spec().max_reward_per_step * ep.length) : 1.0;
+  std::string caption = Caption(e.clip().name(), e.time(), label, normalized, fell);
+  if (steering) caption += SteeringCaption(e);
+  const std::string push = pushes.Describe(t, kPushCaptionSeconds);
+  if (!push.empty()) caption += "\n" + push;
+  return caption;
+}
+
+// The policy's episode beside its reference, restarted where it ends (a fall or the time limit).
+void RenderPolicy(const RenderOptions& o, const run::TrainedPolicy& policy, sim::EnvConfig& env,
+                  const character::Character& character, eval::CommandScript& script,
+                  double seconds, int steps, FrameWriter& frames) {
+  const double fps = env.control_frequency;
+  const bool steering = env.steering.enabled();
+  // A steered path is one episode: no time limit restarts it half-way.
+  if (steering) env.max_episode_steps = std::max(env.max_episode_steps, steps + 1);
+  actor::RolloutWorker worker(env, 1, 1, o.seed, "render");
+  worker.SetPolicy(policy.snapshot);
+  sim::ImitationEnv& e = worker.environment(0);
+  size_t next_change = 0;
+  if (steering) next_change = StartCommands(o, env, seconds, worker, script);
+  worker.ResetFirst(o.phase);
+  eval::ScriptedPushes pushes(script.pushes, character);
+  character::DataPtr reference = character.MakeData();
+  std::vector<double> qvel(character.model()->nv);
+  const std::string label = "policy v" + std::to_string(policy.version);
+  bool fell = false;
+  auto draw = [&](int s) {
+    e.ReferenceState(e.time(), reference->qpos, qvel.data());
+    mj_kinematics(character.model(), reference.get());
+    const std::string caption = PolicyCaption(e, label, fell, steering, pushes, s / fps);
+    frames.Emit(s, e.data(), o.ghost == "none" ? nullptr : reference.get(), caption);
+  };
+  draw(0);
+  for (int s = 1; s <= steps; ++s) {
+    if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / fps) {
+      worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
+    }
+    pushes.Before(e, (s - 1) / fps);
+    sim::StepResult r = worker.StepFirst(true);
+    if (r.terminated || r.truncated) {
+      fell = r.terminated;
+      std::fprintf(stderr, "render: episode %s at %.2f s, normalised return %.3f\n",
+                   r.terminated ? "ended (fell)" : "reached its time limit", e.time(),
+                   e.episode().normalized_return);
+      worker.ResetFirst(e.phase());
+    }
+    draw(s);
+  }
+}
+
+int Render(const RenderOptions& o) {
+  using Clock = std::chrono::steady_clock;
+  const bool with_policy = !o.target.empty();
+  std::unique_ptr<run::TrainedPolicy> policy;
+  if (with_policy) {
+    policy = std::make_unique<run::TrainedPolicy>(run::LoadTrainedPolicy(o.target));
+  }
+  sim::EnvConfig env = RenderEnvironment(o, policy.get());
+  auto clip = character::LoadMotion(env.motion);
+  auto character = character::Character::Load(env.character, env.physics_dt());
   const double fps = env.control_frequency;
   // Steering: the script's commands (or the first command throughout) instead of training's
   // random ones; a script file sets the length.
-  actor::CommandScript script;
+  eval::CommandScript script;
   if (!o.commands.empty() && o.commands != "random") {
-    script = actor::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
+    script = eval::ReadCommandScript(o.commands, *sim::LoadMotionSet(env, *character), *character);
   }
   const double seconds = o.seconds > 0         ? o.seconds
                          : script.duration > 0 ? script.duration
@@ -132,79 +241,16 @@ int Render(const RenderOptions& o) {
   // A still shows one moment: the middle of the requested span unless --time says otherwise.
   const int still_step = o.time >= 0 ? static_cast<int>(std::lround(o.time * fps)) : steps / 2;
   const auto start = Clock::now();
-  int drawn = 0;
-  auto emit = [&](int step, const mjData& sim, const mjData* reference, const std::string& c) {
-    if (video.single_frame() && step != still_step) return;
-    renderer.Draw(sim, reference, c);
-    video.Write(renderer.pixels());
-    ++drawn;
-  };
+  FrameWriter frames{renderer, video, still_step};
 
   if (!with_policy) {
-    // The reference alone: the clip's poses on the character, no physics.
-    sim::DataPtr d = character->MakeData();
-    for (int s = 0; s <= steps; ++s) {
-      const double t = s / fps;
-      character->PoseToQpos(clip.Sample(t), d->qpos);
-      mj_kinematics(character->model(), d.get());
-      emit(s, *d, nullptr, Caption(clip.name(), t, "reference only", -1, false));
-    }
+    RenderReference(*character, clip, fps, steps, frames);
   } else {
-    const bool steering = env.steering.enabled();
-    // A steered path is one episode: no time limit restarts it half-way.
-    if (steering) env.max_episode_steps = std::max(env.max_episode_steps, steps + 1);
-    actor::RolloutWorker worker(env, 1, 1, o.seed, "render");
-    worker.SetPolicy(policy->snapshot);
-    sim::ImitationEnv& e = worker.environment(0);
-    size_t next_change = 0;
-    if (steering) {
-      const sim::MotionSet& motions = e.motion_set();
-      if (o.commands == "random") {
-        script = actor::RandomCommandScript(motions, seconds, env.steering.command_interval_min,
-                                            env.steering.command_interval_max, o.seed);
-      } else if (script.changes.empty()) {
-        script.changes = {{0, motions.entry(motions.commands().front()).name}};
-      }
-      worker.SetCommandFirst(motions.Find(script.changes.front().command));
-      next_change = 1;
-    }
-    worker.ResetFirst(o.phase);
-    actor::ScriptedPushes pushes(script.pushes, *character);
-    sim::DataPtr reference = character->MakeData();
-    std::vector<double> qvel(character->model()->nv);
-    const std::string label = "policy v" + std::to_string(policy->version);
-    bool fell = false;
-    auto draw = [&](int s) {
-      e.ReferenceState(e.time(), reference->qpos, qvel.data());
-      mj_kinematics(character->model(), reference.get());
-      const auto& ep = e.episode();
-      const double normalized =
-          ep.length > 0 ? ep.episode_return / (e.spec().max_reward_per_step * ep.length) : 1.0;
-      std::string caption = Caption(e.clip().name(), e.time(), label, normalized, fell);
-      if (steering) caption += SteeringCaption(e);
-      const std::string push = pushes.Describe(s / fps, kPushCaptionSeconds);
-      if (!push.empty()) caption += "\n" + push;
-      emit(s, e.data(), o.ghost == "none" ? nullptr : reference.get(), caption);
-    };
-    draw(0);
-    for (int s = 1; s <= steps; ++s) {
-      if (next_change < script.changes.size() && script.changes[next_change].at <= (s - 1) / fps) {
-        worker.SetCommandFirst(e.motion_set().Find(script.changes[next_change++].command));
-      }
-      pushes.Before(e, (s - 1) / fps);
-      sim::StepResult r = worker.StepFirst(true);
-      if (r.terminated || r.truncated) {
-        fell = r.terminated;
-        std::fprintf(stderr, "render: episode %s at %.2f s, normalised return %.3f\n",
-                     r.terminated ? "ended (fell)" : "reached its time limit", e.time(),
-                     e.episode().normalized_return);
-        worker.ResetFirst(e.phase());
-      }
-      draw(s);
-    }
+    RenderPolicy(o, *policy, env, *character, script, seconds, steps, frames);
   }
   video.Close();
   const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  const int drawn = frames.drawn;
   std::fprintf(stderr, "render: %s: %d frame%s of %dx%d in %.1f s (%.1f frames/s)\n", o.out.c_str(),
                drawn, drawn == 1 ? "" : "s", view.width, view.height, elapsed,
                drawn / std::max(elapsed, 1e-9));

@@ -7,10 +7,12 @@
 #include <memory>
 #include <sstream>
 
-#include "cli/child_process.h"
-#include "cli/report.h"
 #include "common/config_section.h"
+#include "common/process.h"
+#include "common/run_config.h"
+#include "common/whole_file.h"
 #include "learner/checkpoint_store.h"
+#include "report/report.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -36,25 +38,6 @@ constexpr uintmax_t kLargeGifBytes = 1500 * 1000;
 constexpr int kRenderScale = 2;
 constexpr int kGifFramesPerSecond = 15;
 
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path.string() + ": cannot read");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// Through a temporary file and a rename, so that a reader never sees half a page.
-void WriteFile(const fs::path& path, const std::string& text) {
-  const fs::path temporary = path.string() + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary);
-    out << text;
-    if (!out.flush()) throw std::runtime_error(temporary.string() + ": cannot write");
-  }
-  fs::rename(temporary, path);
-}
-
 // The folder's name, or "main" for ".", "runs/x/" -> "x".
 std::string RunName(const std::string& path) {
   fs::path p = fs::absolute(path).lexically_normal();
@@ -63,7 +46,7 @@ std::string RunName(const std::string& path) {
 }
 
 // Reads what the page shows of a run folder; throws ConfigError naming what is missing.
-RunReport ReadRun(const std::string& path) {
+report::RunReport ReadRun(const std::string& path) {
   if (!fs::is_directory(path)) throw ConfigError("report: " + path + ": no such run folder");
   const fs::path csv = fs::path(path) / "metrics.csv";
   if (!fs::exists(csv)) {
@@ -71,15 +54,15 @@ RunReport ReadRun(const std::string& path) {
                       ": no metrics.csv (not a run folder, or its learner has not finished a "
                       "PPO update yet)");
   }
-  RunReport run;
+  report::RunReport run;
   run.path = path;
   run.id = RunName(path);
-  run.metrics = ParseMetricsCsv(ReadFile(csv), csv.string());
-  const fs::path config = fs::path(path) / "config.yaml";
-  if (fs::exists(config)) run.config_text = ReadFile(config);
-  const fs::path evaluation = fs::path(path) / "eval.json";
+  run.metrics = learner::ParseMetricsCsv(ReadWholeFile(csv.string()), csv.string());
+  run.config_text = ReadRunConfig(path);
+  const fs::path evaluation = fs::path(path) / eval::kEvaluationFile;
   if (fs::exists(evaluation)) {
-    run.evaluation = ParseEvaluationJson(ReadFile(evaluation), evaluation.string());
+    run.evaluation =
+        eval::ParseEvaluationJson(ReadWholeFile(evaluation.string()), evaluation.string());
   }
   return run;
 }
@@ -87,7 +70,7 @@ RunReport ReadRun(const std::string& path) {
 // Renders the run's newest policy into a GIF with this binary's `render` and returns its bytes;
 // on failure returns nothing, says why in the caption and warns.
 std::string RenderGif(const std::string& self, const ReportOptions& o, const fs::path& work,
-                      size_t index, RunReport* run) {
+                      size_t index, report::RunReport* run) {
   const std::string checkpoint = learner::FindCheckpoint(run->path);
   if (checkpoint.empty()) {
     run->gif_caption = "no checkpoint yet, so nothing to render";
@@ -112,7 +95,7 @@ std::string RenderGif(const std::string& self, const ReportOptions& o, const fs:
                                      std::to_string(o.gif_height * kRenderScale)};
   // A steering policy shown standing on its first command says little: it follows a random
   // command script instead, captioned frame by frame.
-  const bool steering = SteersInConfig(run->config_text);
+  const bool steering = report::SteersInConfig(run->config_text);
   if (steering) render.insert(render.end(), {"--commands", "random"});
   const std::string size = std::to_string(o.gif_width) + ":" + std::to_string(o.gif_height);
   const std::vector<std::string> shrink = {
@@ -155,13 +138,13 @@ std::string RenderGif(const std::string& self, const ReportOptions& o, const fs:
                                  "the command)"
                                : "") +
                      "; the translucent figure beside it is the reference clip";
-  return ReadFile(gif);
+  return ReadWholeFile(gif.string());
 }
 
 // The curves as PNG: the same SVG rasterised by rsvg-convert (librsvg2-bin).
 void WritePng(const std::string& svg, const fs::path& work, const std::string& png) {
   const fs::path svg_file = work / "curves.svg";
-  WriteFile(svg_file, svg);
+  WriteWholeFile(svg_file.string(), svg);
   const fs::path log = work / "rsvg-convert.log";
   const int code =
       RunProcess({"rsvg-convert", "--format", "png", "--output", png, svg_file.string()}, log,
@@ -189,7 +172,7 @@ std::string Now() {
 }
 
 int Report(const ReportOptions& o) {
-  std::vector<RunReport> runs;
+  std::vector<report::RunReport> runs;
   for (const auto& path : o.runs) runs.push_back(ReadRun(path));
   // Two folders with one name (runs/a/x, other/x): the legend needs the paths to tell them apart.
   for (auto& run : runs) {
@@ -224,11 +207,11 @@ int Report(const ReportOptions& o) {
     }
   }
 
-  const std::string svg = CurvesSvg(runs);
+  const std::string svg = report::CurvesSvg(runs);
   std::string paths;
   for (const auto& path : o.runs) paths += " " + path;
-  const std::string html = ReportHtml(runs, svg, "ragdoll report" + paths + ", " + Now());
-  WriteFile(o.out, html);
+  const std::string html = report::ReportHtml(runs, svg, "ragdoll report" + paths + ", " + Now());
+  WriteWholeFile(o.out, html);
   std::fprintf(stderr, "report: wrote %s (%.0f kB; %zu run%s, %d GIF%s)\n", o.out.c_str(),
                static_cast<double>(html.size()) / 1e3, runs.size(), runs.size() == 1 ? "" : "s",
                gifs, gifs == 1 ? "" : "s");

@@ -7,13 +7,13 @@
 #include <string>
 
 #include "actor/actor_process.h"
-#include "actor/sim/imitation_env.h"
 #include "broker/broker.h"
-#include "cli/experiment.h"
-#include "common/curve.h"
 #include "common/endpoints.h"
+#include "common/keys.h"
 #include "common/metrics.h"
 #include "learner/learner_process.h"
+#include "run/experiment.h"
+#include "sim/imitation_env.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -32,8 +32,8 @@ std::string Hostname() {
 
 // The experiment as this role runs it: the config with the command line's overrides and the
 // role's CURVE certificate.
-Experiment ReadRoleExperiment(const RoleOptions& o, const char* role) {
-  Experiment e = ReadExperiment(o.config, o.port_base);
+run::Experiment ReadRoleExperiment(const RoleOptions& o, const char* role) {
+  run::Experiment e = run::ReadExperiment(o.config, o.port_base);
   if (!o.broker_host.empty()) e.broker.endpoints.host = o.broker_host;
   if (!o.bind.empty()) e.broker.endpoints.bind = o.bind;
   if (!o.keys.empty()) e.keys_dir = o.keys;
@@ -44,12 +44,12 @@ Experiment ReadRoleExperiment(const RoleOptions& o, const char* role) {
 }
 
 // The metrics port of this role: the option, else the config's (or none when disabled).
-int MetricsPort(const RoleOptions& o, const Experiment& e, int configured) {
+int MetricsPort(const RoleOptions& o, const run::Experiment& e, int configured) {
   if (o.metrics_port >= 0) return o.metrics_port;
   return e.metrics.enabled ? configured : -1;
 }
 
-int RunBrokerRole(const RoleOptions& o, const Experiment& e, const std::atomic<bool>& stop) {
+int RunBrokerRole(const RoleOptions& o, const run::Experiment& e, const std::atomic<bool>& stop) {
   CheckTransportSecurity(e.broker.endpoints, o.insecure);
   MetricsEndpoint metrics("broker", e.metrics.bind, MetricsPort(o, e, e.metrics.broker_port),
                           o.run_id);
@@ -67,7 +67,7 @@ int RunBrokerRole(const RoleOptions& o, const Experiment& e, const std::atomic<b
   return 0;
 }
 
-int RunActorRole(const RoleOptions& o, const Experiment& e, const std::atomic<bool>& stop) {
+int RunActorRole(const RoleOptions& o, const run::Experiment& e, const std::atomic<bool>& stop) {
   actor::ActorConfig a = e.actor;
   a.run_id = o.run_id;
   a.actor_id = Hostname() + "-actor-" + std::to_string(o.index);
@@ -77,7 +77,7 @@ int RunActorRole(const RoleOptions& o, const Experiment& e, const std::atomic<bo
   return actor::RunActor(e.environment, a, e.broker.endpoints, stop);
 }
 
-int RunLearnerRole(const RoleOptions& o, const Experiment& e, const std::atomic<bool>& stop) {
+int RunLearnerRole(const RoleOptions& o, const run::Experiment& e, const std::atomic<bool>& stop) {
   const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
   learner::LearnerProcessConfig l;
   l.run_id = o.run_id;

@@ -5,11 +5,12 @@
 #include <filesystem>
 #include <memory>
 
-#include "actor/sim/imitation_env.h"
-#include "cli/experiment.h"
+#include "common/run_config.h"
 #include "learner/checkpoint_file.h"
 #include "learner/checkpoint_store.h"
 #include "learner/learner.h"
+#include "run/experiment.h"
+#include "sim/imitation_env.h"
 
 namespace ragdoll::cli {
 namespace {
@@ -60,10 +61,9 @@ std::function<int()> AddVerifyCommand(CLI::App& app) {
         try {
           bool verified = false;
           learner::ReadCheckpointFile(file.string(), &verified);
-          // Checkpoints live in <run>/checkpoints/; the run's effective config is
-          // <run>/config.yaml.
-          Experiment e =
-              ReadExperiment((file.parent_path().parent_path() / "config.yaml").string());
+          // Checkpoints live in <run>/checkpoints/; the run's effective config beside them.
+          run::Experiment e =
+              run::ReadExperiment(RunConfigPath(file.parent_path().parent_path().string()));
           const sim::EnvSpec spec = sim::MakeEnvSpec(e.environment);
           learner::Learner l(e.trainer, spec.observation_size, spec.action_size);
           l.Load(file.string());

@@ -7,6 +7,10 @@
 
 namespace ragdoll {
 
+void ThrowConfigError(const std::string& where, const std::string& message) {
+  throw ConfigError(where + ": " + message);
+}
+
 ConfigSection::ConfigSection(YAML::Node node, std::string file, std::string base_dir,
                              std::string prefix, int line)
     : node_(std::move(node)),

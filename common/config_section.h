@@ -22,6 +22,10 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Throws ConfigError "where: message", the shape of every error about a file read at start-up
+// (`where`: the file, file:line, or the file and a key), so that readers need no local Fail().
+[[noreturn]] void ThrowConfigError(const std::string& where, const std::string& message);
+
 class ConfigSection {
  public:
   // Parses a YAML file whose top level is a mapping. Throws ConfigError naming the file on

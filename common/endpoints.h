@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <string>
 
-#include "common/curve.h"
+#include "common/keys.h"
 
 namespace ragdoll {
 

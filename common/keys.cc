@@ -1,4 +1,4 @@
-#include "common/curve.h"
+#include "common/keys.h"
 
 #include <sys/stat.h>
 #include <zmq.h>

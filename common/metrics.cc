@@ -11,7 +11,7 @@
 #include <cstring>
 
 #include "common/config_section.h"
-#include "common/curve.h"
+#include "common/keys.h"
 
 namespace ragdoll {
 MetricsConfig ReadMetricsConfig(const ConfigSection& s) {

@@ -1,4 +1,4 @@
-#include "actor/command_evaluation.h"
+#include "eval/command_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,10 +10,10 @@
 #include <stdexcept>
 
 #include "actor/rollout.h"
-#include "actor/sim/steering_task.h"
 #include "common/config_section.h"
+#include "sim/steering_task.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 namespace {
 
 // Sums of one command's (or transition's) scored steps.
@@ -47,7 +47,7 @@ nlohmann::json TrackingJson(const CommandTracking& t) {
 }  // namespace
 
 CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions,
-                                const sim::Character& character) {
+                                const character::Character& character) {
   ConfigSection root = ConfigSection::FromFile(path);
   CommandScript script;
   for (const ConfigSection& c : root.SectionList("commands")) {
@@ -169,12 +169,10 @@ double CommandEvalResult::median_back_seconds() const {
   return n % 2 ? sorted[n / 2] : (sorted[n / 2 - 1] + sorted[n / 2]) / 2;
 }
 
-CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
-                                   const v1::PolicySnapshot& snapshot,
-                                   const CommandEvalConfig& config, uint64_t seed) {
-  if (!env_config.steering.enabled()) {
-    throw std::invalid_argument("--commands needs a run trained with a steering task");
-  }
+namespace {
+
+// The environment of the runs: episodes as long as the longest script, from random phases.
+sim::EnvConfig CommandRunEnv(const sim::EnvConfig& env_config, const CommandEvalConfig& config) {
   sim::EnvConfig env = env_config;
   const double dt = env.control_dt();
   const double longest = config.random ? config.duration : config.script.duration;
@@ -182,18 +180,197 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
   env.random_start = true;
   // A push that only carries the character away from its reference is not a fall.
   if (config.push_interval > 0) env.max_root_distance = std::numeric_limits<double>::infinity();
-  RolloutWorker worker(env, 1, 1, seed, "commands");
+  return env;
+}
+
+// What every run shares: the settings and the one environment the policy steers.
+struct RunContext {
+  const CommandEvalConfig& config;
+  actor::RolloutWorker& worker;
+  sim::ImitationEnv& e;
+  const sim::SteeringTask& steering;
+  const sim::MotionSet& motions;
+  double dt;
+  double imitation_max;
+  bool recovery;  // the policy gets up (EnvConfig::recovery)
+};
+
+// What the runs add up: the result, and the sums of the settled steps.
+struct Tally {
+  CommandEvalResult result;
+  std::map<std::string, Sums> per_command;
+  Sums overall, moving;
+};
+
+// One run of a script from a random phase: its command changes and pushes, the transition it
+// scores, its knock-downs.
+class CommandRun {
+ public:
+  CommandRun(const RunContext& context, const CommandScript& script, uint64_t seed, Tally* tally);
+  // Plays the script until it ends or a fall ends the episode.
+  void Play();
+  // Closes the transition still pending and counts the run's knock-downs.
+  void Finish();
+
+ private:
+  void ChangeCommand(double t);
+  void Push(double t, int step);
+  // Scores a step that did not end the run: the pending transition, the command's tracking.
+  void Score(double t, const sim::StepResult& r);
+  void CloseTransition(bool fell);
+
+  const RunContext& c_;
+  const CommandScript& script_;
+  Tally& tally_;
+  ScriptedPushes scripted_;
+  RandomPushes random_pushes_;
+  KnockDownClock knockdowns_;
+  size_t next_ = 1;
+  double changed_at_ = 0;
+  std::string previous_;  // the command before the last change
+  // The pending transition's scoring: from settle until the window ends or the next change.
+  Sums transition_;
+  bool pending_ = false;
+  bool fell_ = false, knocked_ = false;
+  double run_time_ = 0;
+};
+
+CommandRun::CommandRun(const RunContext& context, const CommandScript& script, uint64_t seed,
+                       Tally* tally)
+    : c_(context),
+      script_(script),
+      tally_(*tally),
+      scripted_(script.pushes, context.e.character()),
+      random_pushes_(0, context.config.push_max, context.config.push_interval, context.dt, seed,
+                     context.e.character().root_body()),
+      knockdowns_(context.config.transition_speed, context.config.transition_heading,
+                  context.config.back_hold) {}
+
+void CommandRun::Play() {
+  const double dt = c_.dt;
+  sim::ImitationEnv& e = c_.e;
+  const int steps = static_cast<int>(std::lround(script_.duration / dt));
+  for (int step = 0; step < steps && !fell_; ++step) {
+    const double t = step * dt;
+    run_time_ = t + dt;
+    if (next_ < script_.changes.size() && t >= script_.changes[next_].at - 1e-9) {
+      ChangeCommand(t);
+    }
+    Push(t, step);
+    const int falls_before = e.episode().task_falls;
+    sim::StepResult r = c_.worker.StepFirst(/*deterministic=*/true);
+    tally_.result.seconds += dt;
+    if (!r.terminated) {
+      knockdowns_.Step(t + dt, e.episode().task_falls > falls_before,
+                       c_.motions.entry(e.reference_entry()).get_up, c_.steering.SpeedError(),
+                       std::abs(c_.steering.HeadingError(e)));
+    }
+    knocked_ = knocked_ || r.terminated || e.episode().fell();
+    if (r.terminated) {
+      fell_ = true;
+      ++tally_.result.falls;
+      CloseTransition(true);
+      break;
+    }
+    Score(t, r);
+  }
+}
+
+void CommandRun::ChangeCommand(double t) {
+  CloseTransition(false);
+  previous_ = c_.motions.entry(c_.steering.command_entry()).name;
+  c_.worker.SetCommandFirst(c_.motions.Find(script_.changes[next_].command));
+  changed_at_ = t;
+  pending_ = true;
+  transition_ = Sums();
+  ++next_;
+}
+
+void CommandRun::Push(double t, int step) {
+  if (scripted_.Before(c_.e, t)) {
+    ++tally_.result.pushes;
+    knockdowns_.Pushed(t);
+  }
+  if (random_pushes_.Before(c_.e, step)) {
+    ++tally_.result.pushes;
+    knockdowns_.Pushed(t);
+  }
+}
+
+void CommandRun::Score(double t, const sim::StepResult& r) {
+  const sim::MotionSet& motions = c_.motions;
+  const sim::SteeringTask& steering = c_.steering;
+  sim::ImitationEnv& e = c_.e;
+  // Getting up (EnvConfig::recovery) is scored by --recovery, not as steering.
+  if (motions.entry(e.reference_entry()).get_up) return;
+  const double since = t + c_.dt - changed_at_;
+  if (since < c_.config.settle) return;
+  const double speed = steering.SpeedError(), heading = std::abs(steering.HeadingError(e));
+  if (pending_) {
+    if (since <= c_.config.transition_window) {
+      transition_.Add(speed, heading, 0);
+    } else {
+      CloseTransition(false);
+    }
+  }
+  if (motions.entry(e.reference_entry()).transition()) return;
+  const double imitation = (r.terms.total - r.terms.task) / c_.imitation_max;
+  const sim::Command& c = steering.command();
+  tally_.per_command[motions.entry(steering.command_entry()).name].Add(speed, heading, imitation);
+  tally_.overall.Add(speed, heading, imitation);
+  if (std::hypot(c.forward, c.left) > 0.1 || std::abs(c.turn) > 0.1) {
+    tally_.moving.Add(speed, heading, imitation);
+  }
+}
+
+void CommandRun::CloseTransition(bool fell) {
+  if (!pending_) return;
+  pending_ = false;
+  if (!fell && transition_.steps == 0) return;  // the next change came before it settled
+  TransitionOutcome& o =
+      tally_.result.transitions[previous_ + "->" +
+                                c_.e.motion_set().entry(c_.steering.command_entry()).name];
+  ++o.count;
+  if (!fell && transition_.speed / transition_.steps <= c_.config.transition_speed &&
+      transition_.heading / transition_.steps <= c_.config.transition_heading) {
+    ++o.succeeded;
+  }
+}
+
+void CommandRun::Finish() {
+  if (!fell_) CloseTransition(false);
+  if (knocked_) ++tally_.result.knocked_down;
+  // Without recovery every fall ends the run: the fall rate says it all.
+  if (c_.recovery) {
+    knockdowns_.End(run_time_, c_.config.back_window, fell_);
+    tally_.result.knockdown_seconds.insert(tally_.result.knockdown_seconds.end(),
+                                           knockdowns_.seconds().begin(),
+                                           knockdowns_.seconds().end());
+  }
+}
+
+}  // namespace
+
+CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
+                                   const v1::PolicySnapshot& snapshot,
+                                   const CommandEvalConfig& config, uint64_t seed) {
+  if (!env_config.steering.enabled()) {
+    throw std::invalid_argument("--commands needs a run trained with a steering task");
+  }
+  const sim::EnvConfig env = CommandRunEnv(env_config, config);
+  const double dt = env.control_dt();
+  actor::RolloutWorker worker(env, 1, 1, seed, "commands");
   worker.SetPolicy(snapshot);
   sim::ImitationEnv& e = worker.environment(0);
   const sim::SteeringTask& steering = sim::Steering(e);
   const sim::MotionSet& motions = e.motion_set();
   const double imitation_max = env.reward.MaxReward();
+  const bool recovery = env.recovery.enabled();
+  const RunContext context{config, worker, e, steering, motions, dt, imitation_max, recovery};
   std::mt19937_64 phases(seed);
 
-  CommandEvalResult result;
-  result.back_window = config.back_window;
-  std::map<std::string, Sums> per_command;
-  Sums overall, moving;
+  Tally tally;
+  tally.result.back_window = config.back_window;
   for (int run = 0; run < config.runs; ++run) {
     const CommandScript script =
         config.random
@@ -202,101 +379,17 @@ CommandEvalResult EvaluateCommands(const sim::EnvConfig& env_config,
             : config.script;
     worker.SetCommandFirst(motions.Find(script.changes.front().command));
     worker.ResetFirst(std::uniform_real_distribution<double>(0, 1)(phases));
-    ScriptedPushes scripted(script.pushes, e.character());
-    RandomPushes random_pushes(0, config.push_max, config.push_interval, dt, seed + 1 + run,
-                               e.character().root_body());
-    KnockDownClock knockdowns(config.transition_speed, config.transition_heading, config.back_hold);
-    ++result.runs;
-    size_t next = 1;
-    double changed_at = 0;
-    std::string previous;  // the command before the last change
-    // The pending transition's scoring: from settle until the window ends or the next change.
-    Sums transition;
-    bool pending = false;
-    auto close_transition = [&](bool fell) {
-      if (!pending) return;
-      pending = false;
-      if (!fell && transition.steps == 0) return;  // the next change came before it settled
-      TransitionOutcome& o =
-          result.transitions[previous + "->" + e.motion_set().entry(steering.command_entry()).name];
-      ++o.count;
-      if (!fell && transition.speed / transition.steps <= config.transition_speed &&
-          transition.heading / transition.steps <= config.transition_heading) {
-        ++o.succeeded;
-      }
-    };
-    const int steps = static_cast<int>(std::lround(script.duration / dt));
-    bool fell = false, knocked = false;
-    double run_time = 0;
-    for (int step = 0; step < steps && !fell; ++step) {
-      const double t = step * dt;
-      run_time = t + dt;
-      if (next < script.changes.size() && t >= script.changes[next].at - 1e-9) {
-        close_transition(false);
-        previous = motions.entry(steering.command_entry()).name;
-        worker.SetCommandFirst(motions.Find(script.changes[next].command));
-        changed_at = t;
-        pending = true;
-        transition = Sums();
-        ++next;
-      }
-      if (scripted.Before(e, t)) {
-        ++result.pushes;
-        knockdowns.Pushed(t);
-      }
-      if (random_pushes.Before(e, step)) {
-        ++result.pushes;
-        knockdowns.Pushed(t);
-      }
-      const int falls_before = e.episode().task_falls;
-      sim::StepResult r = worker.StepFirst(/*deterministic=*/true);
-      result.seconds += dt;
-      if (!r.terminated) {
-        knockdowns.Step(t + dt, e.episode().task_falls > falls_before,
-                        motions.entry(e.reference_entry()).get_up, steering.SpeedError(),
-                        std::abs(steering.HeadingError(e)));
-      }
-      knocked = knocked || r.terminated || e.episode().fell();
-      if (r.terminated) {
-        fell = true;
-        ++result.falls;
-        close_transition(true);
-        break;
-      }
-      // Getting up (EnvConfig::recovery) is scored by --recovery, not as steering.
-      if (motions.entry(e.reference_entry()).get_up) continue;
-      const double since = t + dt - changed_at;
-      if (since < config.settle) continue;
-      const double speed = steering.SpeedError(), heading = std::abs(steering.HeadingError(e));
-      if (pending) {
-        if (since <= config.transition_window) {
-          transition.Add(speed, heading, 0);
-        } else {
-          close_transition(false);
-        }
-      }
-      if (motions.entry(e.reference_entry()).transition()) continue;
-      const double imitation = (r.terms.total - r.terms.task) / imitation_max;
-      const sim::Command& c = steering.command();
-      per_command[motions.entry(steering.command_entry()).name].Add(speed, heading, imitation);
-      overall.Add(speed, heading, imitation);
-      if (std::hypot(c.forward, c.left) > 0.1 || std::abs(c.turn) > 0.1) {
-        moving.Add(speed, heading, imitation);
-      }
-    }
-    if (!fell) close_transition(false);
-    if (knocked) ++result.knocked_down;
-    // Without recovery every fall ends the run: the fall rate says it all.
-    if (env.recovery.enabled()) {
-      knockdowns.End(run_time, config.back_window, fell);
-      result.knockdown_seconds.insert(result.knockdown_seconds.end(), knockdowns.seconds().begin(),
-                                      knockdowns.seconds().end());
-    }
+    CommandRun command_run(context, script, seed + 1 + run, &tally);
+    ++tally.result.runs;
+    command_run.Play();
+    command_run.Finish();
   }
-  overall.AddTo(&result.overall, dt);
-  moving.AddTo(&result.moving, dt);
-  for (const auto& [name, sums] : per_command) sums.AddTo(&result.per_command[name], dt);
-  return result;
+  tally.overall.AddTo(&tally.result.overall, dt);
+  tally.moving.AddTo(&tally.result.moving, dt);
+  for (const auto& [name, sums] : tally.per_command) {
+    sums.AddTo(&tally.result.per_command[name], dt);
+  }
+  return std::move(tally.result);
 }
 
 std::string CommandEvalResult::ToTable() const {
@@ -373,4 +466,4 @@ std::string CommandEvalResult::ToJson() const {
   return j.dump(2);
 }
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

@@ -8,13 +8,13 @@
 #include <string>
 #include <vector>
 
-#include "actor/run_pushes.h"
-#include "actor/sim/character.h"
-#include "actor/sim/env_config.h"
-#include "actor/sim/motion_set.h"
+#include "character/character.h"
 #include "common/wire.h"
+#include "eval/scripted_pushes.h"
+#include "sim/env_config.h"
+#include "sim/motion_set.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 
 struct CommandScript {
   struct Change {
@@ -38,7 +38,7 @@ struct CommandScript {
 // out of order, a first change after 0, overlapping pushes, or a duration not after the last
 // change.
 CommandScript ReadCommandScript(const std::string& path, const sim::MotionSet& motions,
-                                const sim::Character& character);
+                                const character::Character& character);
 
 // Commands drawn uniformly from the set (never the current one again), each held for a uniform
 // random interval in [interval_min, interval_max] seconds.
@@ -139,4 +139,4 @@ struct CommandEvalResult {
 CommandEvalResult EvaluateCommands(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
                                    const CommandEvalConfig& config, uint64_t seed);
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

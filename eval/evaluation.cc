@@ -1,14 +1,14 @@
-#include "actor/evaluation.h"
+#include "eval/evaluation.h"
 
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "actor/push_evaluation.h"
 #include "actor/rollout.h"
-#include "actor/sim/character.h"
-#include "actor/sim/motion_set.h"
+#include "character/character.h"
+#include "eval/push_evaluation.h"
+#include "sim/motion_set.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 
 std::string EvaluationResult::ToJson(const RobustnessResult* pushes) const {
   nlohmann::json j = {{"episodes", episodes},
@@ -34,7 +34,7 @@ std::string EvaluationResult::ToJson(const RobustnessResult* pushes) const {
 EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
                           int episodes, uint64_t seed) {
   // One environment at a time; the rollout worker supplies the policy and normalisation.
-  RolloutWorker worker(env, 1, 1, seed, "eval");
+  actor::RolloutWorker worker(env, 1, 1, seed, "eval");
   worker.SetPolicy(snapshot);
   return Evaluate(worker, episodes);
 }
@@ -61,13 +61,13 @@ EvaluationResult Mean(const sim::EnvSpec& spec, int episodes, RunEpisode run) {
 
 }  // namespace
 
-EvaluationResult Evaluate(RolloutWorker& worker, int episodes) {
+EvaluationResult Evaluate(actor::RolloutWorker& worker, int episodes) {
   return Mean(worker.spec(), episodes, [&] { return worker.RunEpisode(/*deterministic=*/true); });
 }
 
 EvaluationResult EvaluateReferenceTracking(const sim::EnvConfig& config, int episodes,
                                            uint64_t seed) {
-  auto character = sim::Character::Load(config.character, config.physics_dt());
+  auto character = character::Character::Load(config.character, config.physics_dt());
   sim::ImitationEnv env(character, sim::LoadMotionSet(config, *character), config, seed);
   std::vector<float> observation(env.spec().observation_size), action(env.spec().action_size);
   return Mean(env.spec(), episodes, [&] {
@@ -80,4 +80,4 @@ EvaluationResult EvaluateReferenceTracking(const sim::EnvConfig& config, int epi
   });
 }
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

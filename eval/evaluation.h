@@ -6,13 +6,15 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/env_config.h"
-#include "actor/sim/imitation_env.h"
 #include "common/wire.h"
+#include "sim/env_config.h"
+#include "sim/imitation_env.h"
 
 namespace ragdoll::actor {
-
 class RolloutWorker;
+}  // namespace ragdoll::actor
+
+namespace ragdoll::eval {
 
 struct EvaluationResult {
   int episodes = 0;
@@ -32,9 +34,9 @@ struct EvaluationResult {
 EvaluationResult Evaluate(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
                           int episodes, uint64_t seed);
 // The same with a worker that has its policy (episodes of its environment 0).
-EvaluationResult Evaluate(RolloutWorker& worker, int episodes);
+EvaluationResult Evaluate(actor::RolloutWorker& worker, int episodes);
 // The same episodes without a policy, every PD target at the reference pose: the "tracking
 // alone" baseline that shows what learning added.
 EvaluationResult EvaluateReferenceTracking(const sim::EnvConfig& env, int episodes, uint64_t seed);
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

@@ -1,4 +1,4 @@
-#include "actor/push_evaluation.h"
+#include "eval/push_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,11 +9,11 @@
 #include <sstream>
 
 #include "actor/rollout.h"
-#include "actor/run_pushes.h"
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 #include "common/config_section.h"
+#include "eval/scripted_pushes.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 namespace {
 
 // Survived in at least 90 % of the trials: the one criterion of the sweep and the protocol.
@@ -119,7 +119,7 @@ class PushTrials {
         if (direction != "random") {
           const double* q = e.data().xquat + 4 * e.character().root_body();
           SideAngle(direction, &angle);  // checked before any trial
-          angle += sim::YawOf({q[0], q[1], q[2], q[3]});
+          angle += character::YawOf({q[0], q[1], q[2], q[3]});
         }
         e.SetExternalForce(body_, {force * std::cos(angle), force * std::sin(angle), 0});
       }
@@ -131,7 +131,7 @@ class PushTrials {
     return e.episode().fell();
   }
 
-  RolloutWorker worker_;
+  actor::RolloutWorker worker_;
   int body_ = 0;
   int command_ = -1;  // held through each trial; -1: training's random commands
   int settle_ = 0, pushing_ = 0, observe_ = 0;
@@ -287,4 +287,4 @@ std::string PushProtocolResult::ToJson() const {
   return j.dump(2);
 }
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/env_config.h"
 #include "common/wire.h"
+#include "sim/env_config.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 
 // A sweep over given impulses.
 struct PushConfig {
@@ -87,4 +87,4 @@ PushProtocolResult EvaluatePushProtocol(const sim::EnvConfig& env,
                                         const v1::PolicySnapshot& snapshot,
                                         const PushProtocolConfig& protocol, uint64_t seed);
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

@@ -1,4 +1,4 @@
-#include "actor/recovery_evaluation.h"
+#include "eval/recovery_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,15 +10,16 @@
 #include <sstream>
 
 #include "actor/rollout.h"
-#include "actor/sim/falls.h"
 #include "common/config_section.h"
+#include "sim/falls.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 namespace {
 
 // The environment as the trials run it: no contact and no distance from the reference ends an
 // episode, and none ends before the trial does.
-sim::EnvConfig TrialEnvironment(sim::EnvConfig env, const sim::Character& character, int steps) {
+sim::EnvConfig TrialEnvironment(sim::EnvConfig env, const character::Character& character,
+                                int steps) {
   env.contacts_from_clip = false;
   env.allowed_contacts.clear();
   for (int b : character.bodies()) {
@@ -37,11 +38,11 @@ RecoveryResult EvaluateRecovery(const sim::EnvConfig& env, const v1::PolicySnaps
   if (config.trials < 1 || !(config.seconds > 0) || !(config.hold >= 0)) {
     throw ConfigError("recovery trials need at least one trial, a positive watch and hold >= 0");
   }
-  const auto character = sim::Character::Load(env.character, env.physics_dt());
+  const auto character = character::Character::Load(env.character, env.physics_dt());
   const double dt = env.control_dt();
   const int steps = static_cast<int>(std::lround(config.seconds / dt));
   const int hold = static_cast<int>(std::lround(config.hold / dt));
-  RolloutWorker worker(TrialEnvironment(env, *character, steps), 1, 1, seed, "recovery");
+  actor::RolloutWorker worker(TrialEnvironment(env, *character, steps), 1, 1, seed, "recovery");
   worker.SetPolicy(snapshot);
   sim::ImitationEnv& e = worker.environment(0);
   const double stand_height = sim::StandHeight(e.clip());
@@ -110,4 +111,4 @@ std::string RecoveryResult::ToJson() const {
   return j.dump(2);
 }
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

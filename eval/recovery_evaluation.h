@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/env_config.h"
 #include "common/wire.h"
+#include "sim/env_config.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 
 struct RecoveryConfig {
   int trials = 100;
@@ -33,4 +33,4 @@ struct RecoveryResult {
 RecoveryResult EvaluateRecovery(const sim::EnvConfig& env, const v1::PolicySnapshot& snapshot,
                                 const RecoveryConfig& config, uint64_t seed);
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

@@ -1,4 +1,4 @@
-#include "actor/run_pushes.h"
+#include "eval/scripted_pushes.h"
 
 #include <mujoco/mujoco.h>
 
@@ -9,7 +9,7 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 
 bool SideAngle(const std::string& direction, double* angle) {
   static const std::map<std::string, double> kSides = {
@@ -20,7 +20,7 @@ bool SideAngle(const std::string& direction, double* angle) {
   return true;
 }
 
-ScriptedPushes::ScriptedPushes(std::vector<TimedPush> pushes, const sim::Character& character)
+ScriptedPushes::ScriptedPushes(std::vector<TimedPush> pushes, const character::Character& character)
     : pushes_(std::move(pushes)) {
   for (const TimedPush& p : pushes_) {
     const int body = p.body.empty() ? character.root_body()
@@ -92,4 +92,4 @@ bool RandomPushes::Before(sim::ImitationEnv& env, int step) {
   return true;
 }
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

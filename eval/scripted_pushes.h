@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/imitation_env.h"
+#include "character/character.h"
+#include "sim/imitation_env.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 
 // A push at a moment: `impulse` N s spread over `duration` s on `body` (empty: the pelvis),
 // horizontally toward a side of where the character faces when it starts.
@@ -32,7 +32,7 @@ class ScriptedPushes {
  public:
   // In time order, none overlapping. Throws ConfigError for a body the character does not have
   // or an unknown direction.
-  ScriptedPushes(std::vector<TimedPush> pushes, const sim::Character& character);
+  ScriptedPushes(std::vector<TimedPush> pushes, const character::Character& character);
   // Before the control step that starts at run time `t`: starts or ends a push; true when one
   // started.
   bool Before(sim::ImitationEnv& env, double t);
@@ -69,4 +69,4 @@ class RandomPushes {
   double last_impulse_ = 0, last_angle_ = 0;
 };
 
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

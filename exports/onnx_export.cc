@@ -1,4 +1,4 @@
-#include "cli/onnx_export.h"
+#include "exports/onnx_export.h"
 
 #include <onnx/checker.h>
 #include <onnx/defs/schema.h>
@@ -13,7 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace ragdoll::cli {
+namespace ragdoll::exports {
 
 const char* const kObservationInput = "observation";
 const char* const kActionOutput = "action";
@@ -259,4 +259,4 @@ void WritePolicyFiles(const std::string& model_bytes, const std::string& onnx_pa
   }
 }
 
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::exports

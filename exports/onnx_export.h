@@ -13,7 +13,7 @@
 #include "common/policy.h"
 #include "common/wire.h"
 
-namespace ragdoll::cli {
+namespace ragdoll::exports {
 
 // Opset 13: inside Unity Sentis's 7-15 and every ONNX Runtime since 1.6 (Unreal's NNE runs
 // ONNX Runtime), and every op the graph uses has its current definition there (Clip with tensor
@@ -52,4 +52,4 @@ void CheckModel(const onnx::ModelProto& model);
 void WritePolicyFiles(const std::string& model_bytes, const std::string& onnx_path,
                       const std::string& sidecar_text, const std::string& sidecar_path);
 
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::exports

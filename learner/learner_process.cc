@@ -20,6 +20,7 @@
 #include "common/blas.h"
 #include "common/config_section.h"
 #include "common/metrics.h"
+#include "common/run_config.h"
 #include "common/wire.h"
 #include "learner/checkpoint_store.h"
 #include "learner/learner.h"
@@ -198,11 +199,12 @@ void Restore(Learner& learner, CheckpointStore& store, zmq::context_t& context,
 // The run's effective configuration beside its checkpoints, as `ragdoll train` writes it, so
 // that eval, render and verify work on a run whose roles were started one by one.
 void WriteRunConfig(const LearnerProcessConfig& config) {
-  const fs::path path = fs::path(config.run_dir) / "config.yaml";
-  if (config.config_text.empty() || fs::exists(path)) return;
-  std::ofstream(path.string() + ".tmp") << config.config_text;
-  std::error_code error;
-  fs::rename(path.string() + ".tmp", path, error);
+  if (config.config_text.empty()) return;
+  try {
+    ragdoll::WriteRunConfig(config.run_dir, config.config_text);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "learner: %s (the checkpoints hold the config too)\n", error.what());
+  }
 }
 
 // The segments the broker deals this replica (its PUSH deals them round-robin): each checked,
@@ -320,6 +322,69 @@ class SnapshotPublisher {
   Clock::time_point last_ = Clock::now();
 };
 
+// What this network's gradient steps run at on one thread with nothing else in the way: a
+// small network runs far below the sgemm figure, so that figure alone cannot judge the update.
+double MeasureRawGflops(const TrainerConfig& trainer, const LearnerProcessConfig& config,
+                        const Learner& learner) {
+  at::set_num_threads(1);
+  RawTraining raw(trainer, config.observation_size, config.action_size, learner.minibatch_size());
+  const double raw_gflops = 6e-9 * static_cast<double>(raw.parameters()) * raw.BestRate(20, 0.3);
+  at::set_num_threads(trainer.threads);
+  return raw_gflops;
+}
+
+// A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
+// the earlier ones stay, none is deleted for it, and training goes on.
+bool SaveCheckpoint(CheckpointStore& store, Learner& learner, const LearnerProcessConfig& config,
+                    TrainingLog& log, const char* why) {
+  std::string path;
+  try {
+    path = store.Save(learner, config.config_text);
+  } catch (const std::exception& error) {
+    log.CheckpointFailed(why, error.what());
+    return false;
+  }
+  store.DeleteBeyondKeep();
+  log.CheckpointWritten(why, path);
+  return true;
+}
+
+// Takes segments and updates until max_steps, the leader checkpointing every
+// checkpoint_interval samples. True when stopped first (`stop`, or another replica stopping).
+bool Train(const TrainerConfig& trainer, const LearnerProcessConfig& config,
+           const std::atomic<bool>& stop, bool leader, Learner& learner, CheckpointStore& store,
+           TrainingLog& log, SegmentIntake& intake, SnapshotPublisher& publisher) {
+  int64_t next_checkpoint =
+      (learner.samples() / trainer.checkpoint_interval + 1) * trainer.checkpoint_interval;
+  bool stopped = false;
+  while (learner.samples() < trainer.max_steps) {
+    if (stop.load()) {
+      learner.AgreeToUpdate(true);  // replicas stop together
+      stopped = true;
+      break;
+    }
+    intake.Receive();
+    if (learner.Ready()) {
+      const auto ready_at = Clock::now();
+      // False: another replica is stopping.
+      if (!learner.AgreeToUpdate(false, [&] { intake.TakeWhileWaiting(ready_at); })) {
+        stopped = true;
+        break;
+      }
+      UpdateStats u = learner.Update();
+      publisher.Publish(learner);
+      log.Updated(learner, u, trainer.max_steps);
+      learner.ResetEpisodeStats();
+      if (learner.samples() >= next_checkpoint) {
+        if (leader) SaveCheckpoint(store, learner, config, log, "saved");
+        next_checkpoint += trainer.checkpoint_interval;
+      }
+    }
+    publisher.RepublishWhenDue();
+  }
+  return stopped;
+}
+
 }  // namespace
 
 ReplicaSettings ReadReplicaSettings(const ConfigSection& section) {
@@ -358,65 +423,22 @@ int RunLearner(const TrainerConfig& trainer, const LearnerProcessConfig& config,
 
   MetricsEndpoint endpoint("learner", config.metrics_bind, config.metrics_port, config.run_id);
   TrainingLog log(endpoint, config.run_dir, config.label, leader, learner, config.reward_terms);
-  // What this network's gradient steps run at on one thread with nothing else in the way: a
-  // small network runs far below the sgemm figure, so that figure alone cannot judge the update.
-  at::set_num_threads(1);
-  RawTraining raw(trainer, config.observation_size, config.action_size, learner.minibatch_size());
-  const double raw_gflops = 6e-9 * static_cast<double>(raw.parameters()) * raw.BestRate(20, 0.3);
-  at::set_num_threads(trainer.threads);
+  const double raw_gflops = MeasureRawGflops(trainer, config, learner);
   std::fprintf(stderr,
                "learner: %s; sgemm %.0f GFLOP/s on one thread, this network's fwd+bwd+Adam %.0f\n",
                blas::Summary(false).c_str(), sgemm_gflops, raw_gflops);
   log.CompareUpdatesWith(sgemm_gflops, raw_gflops);
-  // A checkpoint that cannot be written (a full disk, a file size limit) is logged and counted;
-  // the earlier ones stay, none is deleted for it, and training goes on.
-  auto save = [&](const char* why) {
-    std::string path;
-    try {
-      path = store.Save(learner, config.config_text);
-    } catch (const std::exception& error) {
-      log.CheckpointFailed(why, error.what());
-      return false;
-    }
-    store.DeleteBeyondKeep();
-    log.CheckpointWritten(why, path);
-    return true;
-  };
 
   SegmentIntake intake(context, config, endpoints, learner, log);
   SnapshotPublisher publisher(context, config, endpoints, leader);
   publisher.Publish(learner);
   if (leader) WriteRunConfig(config);
 
-  int64_t next_checkpoint =
-      (learner.samples() / trainer.checkpoint_interval + 1) * trainer.checkpoint_interval;
-  bool stopped = false;
-  while (learner.samples() < trainer.max_steps) {
-    if (stop.load()) {
-      learner.AgreeToUpdate(true);  // replicas stop together
-      stopped = true;
-      break;
-    }
-    intake.Receive();
-    if (learner.Ready()) {
-      const auto ready_at = Clock::now();
-      // False: another replica is stopping.
-      if (!learner.AgreeToUpdate(false, [&] { intake.TakeWhileWaiting(ready_at); })) {
-        stopped = true;
-        break;
-      }
-      UpdateStats u = learner.Update();
-      publisher.Publish(learner);
-      log.Updated(learner, u, trainer.max_steps);
-      learner.ResetEpisodeStats();
-      if (learner.samples() >= next_checkpoint) {
-        if (leader) save("saved");
-        next_checkpoint += trainer.checkpoint_interval;
-      }
-    }
-    publisher.RepublishWhenDue();
+  const bool stopped = Train(trainer, config, stop, leader, learner, store, log, intake, publisher);
+  if (leader && !SaveCheckpoint(store, learner, config, log,
+                                stopped ? "final (stopped)" : "final (max_steps reached)")) {
+    return 1;
   }
-  if (leader && !save(stopped ? "final (stopped)" : "final (max_steps reached)")) return 1;
   return 0;
 }
 

@@ -23,23 +23,6 @@ std::string Duration(double seconds) {
   return buffer;
 }
 
-// The columns an existing metrics.csv names in its first line.
-std::vector<std::string> CsvHeader(const fs::path& path) {
-  std::ifstream in(path);
-  std::string line, cell;
-  std::getline(in, line);
-  std::vector<std::string> columns;
-  std::istringstream cells(line);
-  while (std::getline(cells, cell, ',')) columns.push_back(cell);
-  return columns;
-}
-
-std::string JoinCells(const std::vector<std::string>& cells) {
-  std::string line;
-  for (const std::string& c : cells) line += (line.empty() ? "" : ",") + c;
-  return line;
-}
-
 // A value as the metrics.csv writes it (an ostream's default format).
 template <typename T>
 std::string Cell(T value) {
@@ -49,27 +32,6 @@ std::string Cell(T value) {
 }
 
 }  // namespace
-
-std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names) {
-  std::vector<std::string> columns = {
-      "iteration",          "version",       "samples",           "elapsed_s",      "samples_per_s",
-      "episodes",           "mean_return",   "normalized_return", "episode_length", "fall_rate",
-      "policy_loss",        "value_loss",    "entropy",           "approx_kl",      "clip_fraction",
-      "explained_variance", "learning_rate", "update_s",          "stale_dropped",  "rejected",
-      "idle_fraction",      "update_kl"};
-  columns.insert(columns.end(), figure_names.begin(), figure_names.end());
-  return columns;
-}
-
-std::string MetricsRow(const std::vector<std::string>& columns,
-                       const std::map<std::string, std::string>& cells) {
-  std::vector<std::string> row;
-  for (const std::string& c : columns) {
-    auto it = cells.find(c);
-    row.push_back(it == cells.end() ? "0" : it->second);
-  }
-  return JoinCells(row);
-}
 
 // The learner's Prometheus series. Episode and PPO figures are gauges holding the latest PPO
 // iteration's means; totals are counters of this process (a resumed run's totals are gauges).
@@ -174,15 +136,15 @@ TrainingLog::TrainingLog(MetricsEndpoint& endpoint, const std::string& run_dir,
   LearnerMetrics& metrics = *metrics_;
   metrics.version.Set(static_cast<double>(learner.version()));
   metrics.run_samples.Set(static_cast<double>(learner.samples()));
-  const fs::path csv_path = fs::path(run_dir) / "metrics.csv";
+  const fs::path csv_path = fs::path(run_dir) / kMetricsFile;
   if (!leader) return;
   // A resumed run keeps its file's columns (an older learner's order or figures); a new one has the
   // fixed columns, then a column per episode figure.
-  if (fs::exists(csv_path)) csv_columns_ = CsvHeader(csv_path);
+  if (fs::exists(csv_path)) csv_columns_ = ReadMetricsHeader(csv_path.string());
   const bool new_csv = csv_columns_.empty();
   if (new_csv) csv_columns_ = MetricsColumns(learner.episodes().figure_names);
   csv_.open(csv_path, std::ios::app);
-  if (new_csv) csv_ << JoinCells(csv_columns_) << "\n";
+  if (new_csv) csv_ << MetricsHeader(csv_columns_) << "\n";
 }
 
 TrainingLog::~TrainingLog() = default;
@@ -207,28 +169,24 @@ void TrainingLog::Idle(double waited) {
   metrics_->idle_seconds.Increment(waited);
 }
 
-void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t max_steps) {
-  LearnerMetrics& metrics = *metrics_;
-  const bool leader = leader_;
-  std::ofstream& csv = csv_;
-  const EpisodeStatsSum& e = learner.episodes();
-  double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
-  double iteration_s = std::chrono::duration<double>(Clock::now() - last_iteration_).count();
-  last_iteration_ = Clock::now();
-  double rate = (learner.samples() - start_samples_) / std::max(elapsed, 1e-9);
-  const double idle_fraction = idle_seconds_ / std::max(iteration_s, 1e-9);
-  idle_seconds_ = 0;
-  double eta = (max_steps - learner.samples()) / std::max(rate, 1e-9);
-  if (leader)
-    std::printf(
-        "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  v%lld  "
-        "kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
-        label_.c_str(), static_cast<long long>(learner.iterations()),
-        static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
-        e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
-        static_cast<long long>(learner.version()), u.approx_kl, 100 * idle_fraction,
-        Duration(elapsed).c_str(), Duration(eta).c_str());
-  std::fflush(stdout);
+namespace {
+
+// The progress line (the leader's).
+void PrintProgress(const std::string& label, const Learner& learner, const EpisodeStatsSum& e,
+                   const UpdateStats& u, double rate, double idle_fraction, double elapsed,
+                   double eta) {
+  std::printf(
+      "[%s] it %lld  samples %lld  %.0f/s  return %.2f  norm %.3f  len %.1f  fall %.2f  v%lld  "
+      "kl %.4f  idle %.0f%%  elapsed %s  eta %s\n",
+      label.c_str(), static_cast<long long>(learner.iterations()),
+      static_cast<long long>(learner.samples()), rate, e.Mean(e.episode_return),
+      e.Mean(e.normalized_return), e.Mean(e.length), e.Mean(e.falls),
+      static_cast<long long>(learner.version()), u.approx_kl, 100 * idle_fraction,
+      Duration(elapsed).c_str(), Duration(eta).c_str());
+}
+
+// The episode gauges, and the episode total.
+void SetEpisodeMetrics(LearnerMetrics& metrics, const EpisodeStatsSum& e, bool leader) {
   metrics.episode_return.Set(e.Mean(e.episode_return));
   metrics.normalized_return.Set(e.Mean(e.normalized_return));
   metrics.episode_length.Set(e.Mean(e.length));
@@ -236,6 +194,10 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
   // Totals are the group's: replica 0 counts them, so sums over replicas stay right.
   if (leader) metrics.episodes.Increment(static_cast<double>(e.episodes));
   for (size_t i = 0; i < metrics.figures.size(); ++i) metrics.figures[i]->Set(e.Mean(e.figures[i]));
+}
+
+// The PPO update's gauges, count and duration.
+void SetUpdateMetrics(LearnerMetrics& metrics, const UpdateStats& u) {
   metrics.policy_loss.Set(u.policy_loss);
   metrics.value_loss.Set(u.value_loss);
   metrics.entropy.Set(u.entropy);
@@ -245,6 +207,36 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
   metrics.learning_rate.Set(u.learning_rate);
   metrics.updates.Increment();
   metrics.update_seconds.Observe(u.seconds);
+}
+
+}  // namespace
+
+void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t max_steps) {
+  LearnerMetrics& metrics = *metrics_;
+  const bool leader = leader_;
+  const EpisodeStatsSum& e = learner.episodes();
+  double elapsed = std::chrono::duration<double>(Clock::now() - start_).count();
+  double iteration_s = std::chrono::duration<double>(Clock::now() - last_iteration_).count();
+  last_iteration_ = Clock::now();
+  double rate = (learner.samples() - start_samples_) / std::max(elapsed, 1e-9);
+  const double idle_fraction = idle_seconds_ / std::max(iteration_s, 1e-9);
+  idle_seconds_ = 0;
+  double eta = (max_steps - learner.samples()) / std::max(rate, 1e-9);
+  if (leader) PrintProgress(label_, learner, e, u, rate, idle_fraction, elapsed, eta);
+  std::fflush(stdout);
+  SetEpisodeMetrics(metrics, e, leader);
+  SetUpdateMetrics(metrics, u);
+  JudgeUpdateRate(u);
+  metrics.skipped_steps.Increment(static_cast<double>(u.skipped_steps));
+  if (leader) metrics.samples.Increment(static_cast<double>(u.samples));
+  metrics.run_samples.Set(static_cast<double>(learner.samples()));
+  metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
+  metrics.version.Set(static_cast<double>(learner.version()));
+  if (leader) WriteCsvRow(learner, e, u, elapsed, iteration_s, idle_fraction);
+}
+
+void TrainingLog::JudgeUpdateRate(const UpdateStats& u) {
+  LearnerMetrics& metrics = *metrics_;
   if (u.cpu_seconds > 0) {
     const double gflops = u.gflop / u.cpu_seconds;
     metrics.update_gflops.Set(gflops);
@@ -261,40 +253,38 @@ void TrainingLog::Updated(const Learner& learner, const UpdateStats& u, int64_t 
       slow_updates_ = 0;
     }
   }
-  metrics.skipped_steps.Increment(static_cast<double>(u.skipped_steps));
-  if (leader) metrics.samples.Increment(static_cast<double>(u.samples));
-  metrics.run_samples.Set(static_cast<double>(learner.samples()));
-  metrics.samples_per_second.Set(u.samples / std::max(iteration_s, 1e-9));
-  metrics.version.Set(static_cast<double>(learner.version()));
-  if (leader) {
-    std::map<std::string, std::string> row = {
-        {"iteration", Cell(learner.iterations())},
-        {"version", Cell(learner.version())},
-        {"samples", Cell(learner.samples())},
-        {"elapsed_s", Cell(elapsed)},
-        {"samples_per_s", Cell(u.samples / std::max(iteration_s, 1e-9))},
-        {"episodes", Cell(e.episodes)},
-        {"mean_return", Cell(e.Mean(e.episode_return))},
-        {"normalized_return", Cell(e.Mean(e.normalized_return))},
-        {"episode_length", Cell(e.Mean(e.length))},
-        {"fall_rate", Cell(e.Mean(e.falls))},
-        {"policy_loss", Cell(u.policy_loss)},
-        {"value_loss", Cell(u.value_loss)},
-        {"entropy", Cell(u.entropy)},
-        {"approx_kl", Cell(u.approx_kl)},
-        {"clip_fraction", Cell(u.clip_fraction)},
-        {"explained_variance", Cell(u.explained_variance)},
-        {"learning_rate", Cell(u.learning_rate)},
-        {"update_s", Cell(u.seconds)},
-        {"stale_dropped", Cell(learner.stale_dropped())},
-        {"rejected", Cell(rejected_total_)},
-        {"idle_fraction", Cell(idle_fraction)},
-        {"update_kl", Cell(u.update_kl)}};
-    for (size_t i = 0; i < e.figures.size(); ++i)
-      row[e.figure_names[i]] = Cell(e.Mean(e.figures[i]));
-    csv << MetricsRow(csv_columns_, row) << "\n";
-    csv.flush();
-  }
+}
+
+void TrainingLog::WriteCsvRow(const Learner& learner, const EpisodeStatsSum& e,
+                              const UpdateStats& u, double elapsed, double iteration_s,
+                              double idle_fraction) {
+  std::ofstream& csv = csv_;
+  std::map<std::string, std::string> row = {
+      {"iteration", Cell(learner.iterations())},
+      {"version", Cell(learner.version())},
+      {"samples", Cell(learner.samples())},
+      {"elapsed_s", Cell(elapsed)},
+      {"samples_per_s", Cell(u.samples / std::max(iteration_s, 1e-9))},
+      {"episodes", Cell(e.episodes)},
+      {"mean_return", Cell(e.Mean(e.episode_return))},
+      {"normalized_return", Cell(e.Mean(e.normalized_return))},
+      {"episode_length", Cell(e.Mean(e.length))},
+      {"fall_rate", Cell(e.Mean(e.falls))},
+      {"policy_loss", Cell(u.policy_loss)},
+      {"value_loss", Cell(u.value_loss)},
+      {"entropy", Cell(u.entropy)},
+      {"approx_kl", Cell(u.approx_kl)},
+      {"clip_fraction", Cell(u.clip_fraction)},
+      {"explained_variance", Cell(u.explained_variance)},
+      {"learning_rate", Cell(u.learning_rate)},
+      {"update_s", Cell(u.seconds)},
+      {"stale_dropped", Cell(learner.stale_dropped())},
+      {"rejected", Cell(rejected_total_)},
+      {"idle_fraction", Cell(idle_fraction)},
+      {"update_kl", Cell(u.update_kl)}};
+  for (size_t i = 0; i < e.figures.size(); ++i) row[e.figure_names[i]] = Cell(e.Mean(e.figures[i]));
+  csv << MetricsRow(csv_columns_, row) << "\n";
+  csv.flush();
 }
 
 void TrainingLog::CompareUpdatesWith(double sgemm_gflops, double raw_gflops) {

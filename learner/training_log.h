@@ -13,18 +13,11 @@
 #include "common/metrics.h"
 #include "common/wire.h"
 #include "learner/learner.h"
+#include "learner/metrics_csv.h"
 
 namespace ragdoll::learner {
 
 struct LearnerMetrics;
-
-// The columns of a new metrics.csv: the learner's own, then one per episode figure.
-std::vector<std::string> MetricsColumns(const std::vector<std::string>& figure_names);
-// A metrics.csv row: `cells` (by column name) in `columns`' order, comma-separated. A column
-// without a cell (a figure this run's environment does not report, in the file of a resumed older
-// run) holds 0, as the learner wrote such figures before they had names.
-std::string MetricsRow(const std::vector<std::string>& columns,
-                       const std::map<std::string, std::string>& cells);
 
 class TrainingLog {
  public:
@@ -54,6 +47,12 @@ class TrainingLog {
 
  private:
   using Clock = std::chrono::steady_clock;
+
+  // Updated's parts that keep state: the update's speed judged against raw_gflops_ (warned of
+  // when slow), and the leader's CSV row.
+  void JudgeUpdateRate(const UpdateStats& u);
+  void WriteCsvRow(const Learner& learner, const EpisodeStatsSum& e, const UpdateStats& u,
+                   double elapsed, double iteration_s, double idle_fraction);
 
   std::unique_ptr<LearnerMetrics> metrics_;
   std::string label_;

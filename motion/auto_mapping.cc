@@ -6,11 +6,15 @@
 #include <map>
 #include <set>
 
+#include "character/vector.h"
 #include "common/config_section.h"
 
 namespace ragdoll::motion {
 
-using sim::Vec3;
+using character::Cross;
+using character::Dot;
+using character::Sub;
+using character::Vec3;
 
 namespace {
 
@@ -135,12 +139,6 @@ std::string Lower(std::string s) {
   return s;
 }
 
-Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec3 Cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-
 class Mapper {
  public:
   explicit Mapper(const SkeletonAnimation& skeleton) : s_(skeleton) {
@@ -159,33 +157,47 @@ class Mapper {
   AutoMapping Run() {
     AutoMapping result;
     result.scheme = Scheme();
+    bool geometry_sides = false;
+    std::map<std::string, int> parts = LimbParts(&geometry_sides, &result.notes);
+    const int root = FindRoot(parts);
+    parts["root"] = root;
+    const int chest = FindChest(parts, root);
+    parts["chest"] = chest;
+    int neck = -1, head = -1;
+    FindNeckAndHead(chest, &neck, &head, &result.notes);
+    parts["neck"] = neck;
+    parts["head"] = head;
+
+    RequireParts(parts);
+    result.mapping.origin = "auto (" + result.scheme + ")";
+    for (const auto& [part, joint] : parts) {
+      if (joint >= 0) result.mapping.joints[part] = s_.joints[joint].name;
+    }
+    for (const char* optional :
+         {"neck", "head", "right_toe", "left_toe", "right_wrist", "left_wrist"}) {
+      if (parts[optional] < 0) result.notes.push_back(std::string(optional) + " not found");
+    }
+    if (geometry_sides) result.scheme += ", sides from the rest pose";
+    return result;
+  }
+
+ private:
+  // The legs' and arms' joints by part ("left_knee"; -1 where none), and whether the rest pose
+  // had to tell left from right.
+  std::map<std::string, int> LimbParts(bool* geometry_sides,
+                                       std::vector<std::string>* notes) const {
     // Legs and arms: a chain per side, each part below the one before.
     const std::vector<std::string> leg = {"hip", "knee", "ankle", "toe"};
     const std::vector<std::string> arm = {"shoulder", "elbow", "wrist"};
     std::map<Side, std::vector<int>> legs, arms;
-    bool geometry_sides = false;
     for (Side side : {kRight, kLeft}) {
       legs[side] = Chain(leg, side, -1);
       arms[side] = Chain(arm, side, -1);
     }
     if (legs[kRight][0] < 0 && legs[kLeft][0] < 0) {
-      // No sided names: two unsided leg chains, told apart by the rest pose.
-      std::vector<std::vector<int>> unsided = UnsidedChains(leg);
-      std::vector<std::vector<int>> unsided_arms = UnsidedChains(arm);
-      if (unsided.size() == 2) {
-        geometry_sides = true;
-        const bool first_left = IsLeft(unsided[0], unsided[1]);
-        legs[kLeft] = unsided[first_left ? 0 : 1];
-        legs[kRight] = unsided[first_left ? 1 : 0];
-        if (unsided_arms.size() == 2) {
-          const Vec3 left_dir = LeftDirection(legs[kLeft], legs[kRight]);
-          const bool arm0_left =
-              Dot(Sub(s_.rest[unsided_arms[0][0]].position, s_.rest[unsided_arms[1][0]].position),
-                  left_dir) > 0;
-          arms[kLeft] = unsided_arms[arm0_left ? 0 : 1];
-          arms[kRight] = unsided_arms[arm0_left ? 1 : 0];
-        }
-        result.notes.push_back("joint names do not say left or right: the rest pose decided");
+      *geometry_sides = SidesFromRestPose(leg, arm, legs, arms);
+      if (*geometry_sides) {
+        notes->push_back("joint names do not say left or right: the rest pose decided");
       }
     }
     std::map<std::string, int> parts;
@@ -194,7 +206,35 @@ class Mapper {
       for (size_t i = 0; i < leg.size(); ++i) parts[prefix + leg[i]] = legs[side][i];
       for (size_t i = 0; i < arm.size(); ++i) parts[prefix + arm[i]] = arms[side][i];
     }
-    // Root: a joint called hips/pelvis above both legs, else where the legs meet.
+    return parts;
+  }
+
+  // No sided names: two unsided leg chains, told apart by the rest pose. False when there are
+  // not two (`legs` and `arms` stay as they are).
+  bool SidesFromRestPose(const std::vector<std::string>& leg, const std::vector<std::string>& arm,
+                         std::map<Side, std::vector<int>>& legs,
+                         std::map<Side, std::vector<int>>& arms) const {
+    std::vector<std::vector<int>> unsided = UnsidedChains(leg);
+    std::vector<std::vector<int>> unsided_arms = UnsidedChains(arm);
+    if (unsided.size() == 2) {
+      const bool first_left = IsLeft(unsided[0], unsided[1]);
+      legs[kLeft] = unsided[first_left ? 0 : 1];
+      legs[kRight] = unsided[first_left ? 1 : 0];
+      if (unsided_arms.size() == 2) {
+        const Vec3 left_dir = LeftDirection(legs[kLeft], legs[kRight]);
+        const bool arm0_left =
+            Dot(Sub(s_.rest[unsided_arms[0][0]].position, s_.rest[unsided_arms[1][0]].position),
+                left_dir) > 0;
+        arms[kLeft] = unsided_arms[arm0_left ? 0 : 1];
+        arms[kRight] = unsided_arms[arm0_left ? 1 : 0];
+      }
+      return true;
+    }
+    return false;
+  }
+
+  // Root: a joint called hips/pelvis above both legs, else where the legs meet.
+  int FindRoot(std::map<std::string, int>& parts) const {
     int root = -1;
     const int lh = parts["left_hip"], rh = parts["right_hip"];
     if (lh >= 0 && rh >= 0) {
@@ -204,8 +244,11 @@ class Mapper {
     } else {
       root = Best("root", kNoSide, [](int) { return true; });
     }
-    parts["root"] = root;
-    // Chest: where the arms meet, above any neck or clavicle joint.
+    return root;
+  }
+
+  // Chest: where the arms meet, above any neck or clavicle joint.
+  int FindChest(std::map<std::string, int>& parts, int root) const {
     int chest = -1;
     const int ls = parts["left_shoulder"], rs = parts["right_shoulder"];
     if (ls >= 0 && rs >= 0) {
@@ -213,8 +256,12 @@ class Mapper {
       while (chest >= 0 && chest != root && IsNeckOrClavicle(chest))
         chest = s_.joints[chest].parent;
     }
-    parts["chest"] = chest;
-    // Neck and head: named joints above the chest, else the spine chain continued upwards.
+    return chest;
+  }
+
+  // Neck and head: named joints above the chest, else the spine chain continued upwards.
+  void FindNeckAndHead(int chest, int* neck_joint, int* head_joint,
+                       std::vector<std::string>* notes) const {
     auto above_chest = [&](int j) { return chest < 0 || (j != chest && IsAncestor(chest, j)); };
     int head = Best("head", kNoSide, above_chest);
     int neck = Best("neck", kNoSide, [&](int j) {
@@ -233,13 +280,15 @@ class Mapper {
         int j = head;
         while (s_.joints[j].parent >= 0 && s_.joints[j].parent != chest) j = s_.joints[j].parent;
         if (j != head) neck = j;
-        result.notes.push_back("no joint is called head: the spine's last joint is taken");
+        notes->push_back("no joint is called head: the spine's last joint is taken");
       }
     }
-    parts["neck"] = neck;
-    parts["head"] = head;
+    *neck_joint = neck;
+    *head_joint = head;
+  }
 
-    // Everything the retargeter needs must be there.
+  // Everything the retargeter needs must be there.
+  void RequireParts(std::map<std::string, int>& parts) const {
     std::vector<std::string> missing;
     for (const char* required :
          {"root", "chest", "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee",
@@ -247,19 +296,8 @@ class Mapper {
       if (parts[required] < 0) missing.push_back(required);
     }
     if (!missing.empty()) Fail(missing);
-    result.mapping.origin = "auto (" + result.scheme + ")";
-    for (const auto& [part, joint] : parts) {
-      if (joint >= 0) result.mapping.joints[part] = s_.joints[joint].name;
-    }
-    for (const char* optional :
-         {"neck", "head", "right_toe", "left_toe", "right_wrist", "left_wrist"}) {
-      if (parts[optional] < 0) result.notes.push_back(std::string(optional) + " not found");
-    }
-    if (geometry_sides) result.scheme += ", sides from the rest pose";
-    return result;
   }
 
- private:
   // The length of a prefix every joint name shares up to a separator, such as the armature's
   // name Blender's COLLADA export puts before each bone ("walk_mixamorig_Hips"); 0 if none.
   size_t CommonPrefix() const {

@@ -11,11 +11,11 @@
 
 namespace ragdoll::motion {
 
-using sim::AxisAngle;
-using sim::Multiply;
-using sim::Normalized;
-using sim::Quat;
-using sim::Vec3;
+using character::AxisAngle;
+using character::Multiply;
+using character::Normalized;
+using character::Quat;
+using character::Vec3;
 
 namespace {
 
@@ -170,6 +170,151 @@ std::string ValueAfter(const std::string& line, const std::string& label) {
   return a == std::string::npos ? "" : rest.substr(a, b - a + 1);
 }
 
+// The text's lines, without a Windows line end's '\r'.
+std::vector<std::string> SplitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      lines.push_back(line);
+    }
+  }
+  return lines;
+}
+
+[[noreturn]] void FailAtLine(const std::string& origin, size_t line, const std::string& message) {
+  throw ConfigError(origin + ":" + std::to_string(line) + ": " + message);
+}
+
+std::string Trimmed(const std::string& s) {
+  size_t a = s.find_first_not_of(" \t");
+  if (a == std::string::npos) return std::string();
+  return s.substr(a, s.find_last_not_of(" \t") - a + 1);
+}
+
+// Where the sections start: the HIERARCHY line (the first that is not empty) and the MOTION line.
+void FindSections(const std::vector<std::string>& lines, const std::string& origin, size_t* first,
+                  size_t* motion_line) {
+  *first = 0;
+  while (*first < lines.size() && Trimmed(lines[*first]).empty()) ++*first;
+  if (*first == lines.size() || Trimmed(lines[*first]) != "HIERARCHY") {
+    FailAtLine(origin, *first + 1, "a BVH file starts with HIERARCHY");
+  }
+  *motion_line = *first + 1;
+  while (*motion_line < lines.size() && Trimmed(lines[*motion_line]) != "MOTION") ++*motion_line;
+  if (*motion_line == lines.size()) FailAtLine(origin, lines.size(), "no MOTION section");
+}
+
+// The joints between HIERARCHY and MOTION: one ROOT and its descendants.
+void ParseHierarchy(const std::vector<std::string>& lines, size_t first, size_t motion_line,
+                    const std::string& origin, BvhMotion* motion) {
+  Tokens tokens(lines, first + 1, motion_line, origin);
+  Token root = tokens.Take();
+  if (root.text != "ROOT") tokens.Fail(root.line, "expected ROOT, found '" + root.text + "'");
+  Token root_name = tokens.Take();
+  ParseJoint(tokens, motion, -1, root_name, 0);
+  if (!tokens.done()) {
+    Token extra = tokens.Take();
+    tokens.Fail(extra.line, "unexpected '" + extra.text + "' after the root joint (one ROOT only)");
+  }
+  if (motion->channel_count == 0) FailAtLine(origin, root.line, "no joint has channels");
+}
+
+// "Frames: N" and "Frame Time: t" from `*line_at` on (sets the motion's frame_time); leaves
+// `*line_at` after them. Returns N, as a number and as written.
+long ParseFrameCount(const std::vector<std::string>& lines, size_t* line_at, BvhMotion* motion,
+                     std::string* frames_written) {
+  const std::string& origin = motion->origin;
+  size_t& line = *line_at;
+  auto next_nonempty = [&]() {
+    while (line < lines.size() && Trimmed(lines[line]).empty()) ++line;
+  };
+  next_nonempty();
+  if (line >= lines.size() || Trimmed(lines[line]).rfind("Frames:", 0) != 0) {
+    FailAtLine(origin, line + 1, "expected 'Frames: N' after MOTION");
+  }
+  const std::string frames_text = ValueAfter(Trimmed(lines[line]), "Frames:");
+  char* end = nullptr;
+  const long frames = std::strtol(frames_text.c_str(), &end, 10);
+  if (frames_text.empty() || *end != '\0' || frames < 1 || frames > 10000000) {
+    FailAtLine(origin, line + 1,
+               "'Frames:' needs a positive whole number, found '" + frames_text + "'");
+  }
+  ++line;
+  next_nonempty();
+  if (line >= lines.size() || Trimmed(lines[line]).rfind("Frame Time:", 0) != 0) {
+    FailAtLine(origin, line + 1, "expected 'Frame Time: seconds' after 'Frames:'");
+  }
+  const std::string time_text = ValueAfter(Trimmed(lines[line]), "Frame Time:");
+  motion->frame_time = std::strtod(time_text.c_str(), &end);
+  if (time_text.empty() || *end != '\0' || !(motion->frame_time > 0) ||
+      !std::isfinite(motion->frame_time)) {
+    FailAtLine(origin, line + 1,
+               "'Frame Time:' needs a positive number of seconds, found '" + time_text + "'");
+  }
+  ++line;
+  *frames_written = frames_text;
+  return frames;
+}
+
+// One frame's values from its (trimmed) line, `line` counting from 0; as many as the channels.
+std::vector<double> ParseFrameRow(const std::string& row, size_t line, const BvhMotion& motion) {
+  const std::string& origin = motion.origin;
+  char* end = nullptr;
+  std::vector<double> values;
+  values.reserve(motion.channel_count);
+  const char* p = row.c_str();
+  while (*p) {
+    while (*p == ' ' || *p == '\t') ++p;
+    if (!*p) break;
+    const char* start = p;
+    while (*p && *p != ' ' && *p != '\t') ++p;
+    std::string word(start, p);
+    errno = 0;
+    double v = std::strtod(word.c_str(), &end);
+    if (*end != '\0' || errno == ERANGE || !std::isfinite(v)) {
+      FailAtLine(origin, line + 1,
+                 "frame " + std::to_string(motion.frames.size()) + ": '" + word +
+                     "' is not a finite number");
+    }
+    values.push_back(v);
+  }
+  if (static_cast<int>(values.size()) != motion.channel_count) {
+    FailAtLine(origin, line + 1,
+               "frame " + std::to_string(motion.frames.size()) + " has " +
+                   std::to_string(values.size()) + " values; the hierarchy declares " +
+                   std::to_string(motion.channel_count) + " channels");
+  }
+  return values;
+}
+
+// The frame lines from `line` on: the `frames` that 'Frames:' declares (`frames_text`).
+void ParseFrames(const std::vector<std::string>& lines, size_t line, long frames,
+                 const std::string& frames_text, BvhMotion* motion) {
+  motion->frames.reserve(static_cast<size_t>(frames));
+  for (; line < lines.size(); ++line) {
+    const std::string row = Trimmed(lines[line]);
+    if (row.empty()) continue;
+    if (static_cast<long>(motion->frames.size()) == frames) {
+      // Real files miscount (Assimp's test capture Boxing_Toes.bvh has one line more than its
+      // 'Frames:'): the declared frames are read, the rest is reported, not guessed at.
+      size_t extra = 0;
+      for (size_t l = line; l < lines.size(); ++l) extra += !Trimmed(lines[l]).empty();
+      motion->notes.push_back(motion->origin + ":" + std::to_string(line + 1) + ": " +
+                              std::to_string(extra) + " line" + (extra == 1 ? "" : "s") +
+                              " after the " + frames_text + " frames 'Frames:' declares: ignored");
+      break;
+    }
+    motion->frames.push_back(ParseFrameRow(row, line, *motion));
+  }
+  if (static_cast<long>(motion->frames.size()) < frames) {
+    FailAtLine(motion->origin, lines.size(),
+               "truncated: 'Frames: " + frames_text + "' but " +
+                   std::to_string(motion->frames.size()) + " frame lines");
+  }
+}
+
 }  // namespace
 
 int BvhMotion::Find(const std::string& name) const {
@@ -225,113 +370,19 @@ Vec3 BvhMotion::LocalTranslation(int frame, int joint) const {
 }
 
 BvhMotion ParseBvh(const std::string& text, const std::string& origin) {
-  std::vector<std::string> lines;
-  {
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) {
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      lines.push_back(line);
-    }
-  }
-  auto fail = [&](size_t line, const std::string& message) -> void {
-    throw ConfigError(origin + ":" + std::to_string(line) + ": " + message);
-  };
-  auto trimmed = [](const std::string& s) {
-    size_t a = s.find_first_not_of(" \t");
-    if (a == std::string::npos) return std::string();
-    return s.substr(a, s.find_last_not_of(" \t") - a + 1);
-  };
-  size_t first = 0;
-  while (first < lines.size() && trimmed(lines[first]).empty()) ++first;
-  if (first == lines.size() || trimmed(lines[first]) != "HIERARCHY") {
-    fail(first + 1, "a BVH file starts with HIERARCHY");
-  }
-  size_t motion_line = first + 1;
-  while (motion_line < lines.size() && trimmed(lines[motion_line]) != "MOTION") ++motion_line;
-  if (motion_line == lines.size()) fail(lines.size(), "no MOTION section");
+  const std::vector<std::string> lines = SplitLines(text);
+  size_t first = 0, motion_line = 0;
+  FindSections(lines, origin, &first, &motion_line);
 
   BvhMotion motion;
   motion.origin = origin;
-  Tokens tokens(lines, first + 1, motion_line, origin);
-  Token root = tokens.Take();
-  if (root.text != "ROOT") tokens.Fail(root.line, "expected ROOT, found '" + root.text + "'");
-  Token root_name = tokens.Take();
-  ParseJoint(tokens, &motion, -1, root_name, 0);
-  if (!tokens.done()) {
-    Token extra = tokens.Take();
-    tokens.Fail(extra.line, "unexpected '" + extra.text + "' after the root joint (one ROOT only)");
-  }
-  if (motion.channel_count == 0) fail(root.line, "no joint has channels");
+  ParseHierarchy(lines, first, motion_line, origin, &motion);
 
   // MOTION: "Frames: N", "Frame Time: t", then N lines of channel_count values.
   size_t line = motion_line + 1;
-  auto next_nonempty = [&]() {
-    while (line < lines.size() && trimmed(lines[line]).empty()) ++line;
-  };
-  next_nonempty();
-  if (line >= lines.size() || trimmed(lines[line]).rfind("Frames:", 0) != 0) {
-    fail(line + 1, "expected 'Frames: N' after MOTION");
-  }
-  const std::string frames_text = ValueAfter(trimmed(lines[line]), "Frames:");
-  char* end = nullptr;
-  const long frames = std::strtol(frames_text.c_str(), &end, 10);
-  if (frames_text.empty() || *end != '\0' || frames < 1 || frames > 10000000) {
-    fail(line + 1, "'Frames:' needs a positive whole number, found '" + frames_text + "'");
-  }
-  ++line;
-  next_nonempty();
-  if (line >= lines.size() || trimmed(lines[line]).rfind("Frame Time:", 0) != 0) {
-    fail(line + 1, "expected 'Frame Time: seconds' after 'Frames:'");
-  }
-  const std::string time_text = ValueAfter(trimmed(lines[line]), "Frame Time:");
-  motion.frame_time = std::strtod(time_text.c_str(), &end);
-  if (time_text.empty() || *end != '\0' || !(motion.frame_time > 0) ||
-      !std::isfinite(motion.frame_time)) {
-    fail(line + 1, "'Frame Time:' needs a positive number of seconds, found '" + time_text + "'");
-  }
-  ++line;
-  motion.frames.reserve(static_cast<size_t>(frames));
-  for (; line < lines.size(); ++line) {
-    const std::string row = trimmed(lines[line]);
-    if (row.empty()) continue;
-    if (static_cast<long>(motion.frames.size()) == frames) {
-      // Real files miscount (Assimp's test capture Boxing_Toes.bvh has one line more than its
-      // 'Frames:'): the declared frames are read, the rest is reported, not guessed at.
-      size_t extra = 0;
-      for (size_t l = line; l < lines.size(); ++l) extra += !trimmed(lines[l]).empty();
-      motion.notes.push_back(motion.origin + ":" + std::to_string(line + 1) + ": " +
-                             std::to_string(extra) + " line" + (extra == 1 ? "" : "s") +
-                             " after the " + frames_text + " frames 'Frames:' declares: ignored");
-      break;
-    }
-    std::vector<double> values;
-    values.reserve(motion.channel_count);
-    const char* p = row.c_str();
-    while (*p) {
-      while (*p == ' ' || *p == '\t') ++p;
-      if (!*p) break;
-      const char* start = p;
-      while (*p && *p != ' ' && *p != '\t') ++p;
-      std::string word(start, p);
-      errno = 0;
-      double v = std::strtod(word.c_str(), &end);
-      if (*end != '\0' || errno == ERANGE || !std::isfinite(v)) {
-        fail(line + 1, "frame " + std::to_string(motion.frames.size()) + ": '" + word +
-                           "' is not a finite number");
-      }
-      values.push_back(v);
-    }
-    if (static_cast<int>(values.size()) != motion.channel_count) {
-      fail(line + 1, "frame " + std::to_string(motion.frames.size()) + " has " +
-                         std::to_string(values.size()) + " values; the hierarchy declares " +
-                         std::to_string(motion.channel_count) + " channels");
-    }
-    motion.frames.push_back(std::move(values));
-  }
-  if (static_cast<long>(motion.frames.size()) < frames) {
-    fail(lines.size(), "truncated: 'Frames: " + frames_text + "' but " +
-                           std::to_string(motion.frames.size()) + " frame lines");
-  }
+  std::string frames_text;
+  const long frames = ParseFrameCount(lines, &line, &motion, &frames_text);
+  ParseFrames(lines, line, frames, frames_text, &motion);
   return motion;
 }
 

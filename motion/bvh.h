@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
 namespace ragdoll::motion {
 
@@ -16,7 +16,7 @@ enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotati
 struct BvhJoint {
   std::string name;  // "End Site" leaves are named "<parent>_end"
   int parent = -1;   // index into BvhMotion::joints; -1 for the root
-  sim::Vec3 offset = {0, 0, 0};
+  character::Vec3 offset = {0, 0, 0};
   std::vector<BvhChannel> channels;  // in file order; empty for end sites
   int first_channel = 0;             // index of channels[0] in a frame's values
   bool end_site = false;
@@ -35,10 +35,10 @@ struct BvhMotion {
   int Find(const std::string& name) const;
   // The joint's rotation relative to its parent at a frame: the product of its rotation
   // channels in file order (BVH's convention), degrees converted. Identity without channels.
-  sim::Quat LocalRotation(int frame, int joint) const;
+  character::Quat LocalRotation(int frame, int joint) const;
   // The joint's translation relative to its parent at a frame: its offset, replaced per axis by
   // any position channels (the root's usually).
-  sim::Vec3 LocalTranslation(int frame, int joint) const;
+  character::Vec3 LocalTranslation(int frame, int joint) const;
 };
 
 // Parses BVH text; `origin` names it in errors. Throws ConfigError "origin:line: reason" for a

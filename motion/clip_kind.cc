@@ -4,20 +4,20 @@
 #include <cstdio>
 #include <vector>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 
 namespace ragdoll::motion {
 
-using sim::MotionClip;
-using sim::Pose;
+using character::MotionClip;
+using character::Pose;
 
 namespace {
 
 double Degrees(double radians) { return radians * 180 / M_PI; }
 
 // The root's tilt: its rotation with the heading taken out.
-sim::Quat Tilt(const sim::Quat& root) {
-  return sim::Multiply(sim::Conjugate(sim::HeadingOf(root)), root);
+character::Quat Tilt(const character::Quat& root) {
+  return character::Multiply(character::Conjugate(character::HeadingOf(root)), root);
 }
 
 bool IsFoot(const std::string& body) {
@@ -37,10 +37,10 @@ bool ClosesALoop(const MotionClip& clip, std::string* why) {
   };
   double worst = 0, sum = 0;
   std::string joint;
-  const std::vector<sim::SkeletonJoint>& joints = sim::Humanoid3dJoints();
+  const std::vector<character::SkeletonJoint>& joints = character::Humanoid3dJoints();
   for (size_t j = 0; j < first.joint_rotations.size(); ++j) {
     const double angle =
-        Degrees(sim::AngleBetween(first.joint_rotations[j], last.joint_rotations[j]));
+        Degrees(character::AngleBetween(first.joint_rotations[j], last.joint_rotations[j]));
     sum += angle;
     if (angle > worst) {
       worst = angle;
@@ -59,7 +59,7 @@ bool ClosesALoop(const MotionClip& clip, std::string* why) {
     return say(false);
   }
   const double tilt =
-      Degrees(sim::AngleBetween(Tilt(first.root_rotation), Tilt(last.root_rotation)));
+      Degrees(character::AngleBetween(Tilt(first.root_rotation), Tilt(last.root_rotation)));
   if (tilt > kLoopMeanDegrees) {
     std::snprintf(line, sizeof line, "the body ends tilted %.0f deg from how it starts", tilt);
     return say(false);

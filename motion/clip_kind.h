@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "actor/sim/motion_clip.h"
+#include "character/motion_clip.h"
 #include "motion/clip_report.h"
 
 namespace ragdoll::motion {
@@ -19,10 +19,10 @@ namespace ragdoll::motion {
 constexpr double kLoopMeanDegrees = 10;
 constexpr double kLoopJointDegrees = 30;
 constexpr double kLoopHeight = 0.04;  // m
-bool ClosesALoop(const sim::MotionClip& clip, std::string* why = nullptr);
+bool ClosesALoop(const character::MotionClip& clip, std::string* why = nullptr);
 
 // The clip marked as looping (its frames unchanged).
-sim::MotionClip AsLoop(const sim::MotionClip& clip);
+character::MotionClip AsLoop(const character::MotionClip& clip);
 
 enum class ClipKind {
   kLocomotion,   // a loop whose root travels or turns each cycle (walks, runs, strafes, turns)
@@ -44,6 +44,6 @@ struct ClipKindChoice {
 constexpr double kLocomotionSpeed = 0.15;  // m/s
 constexpr double kLocomotionTurn = 0.2;    // rad per cycle
 constexpr double kContactShare = 0.1;
-ClipKindChoice ClassifyClip(const sim::MotionClip& clip, const ClipReport& report);
+ClipKindChoice ClassifyClip(const character::MotionClip& clip, const ClipReport& report);
 
 }  // namespace ragdoll::motion

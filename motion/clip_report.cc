@@ -7,19 +7,19 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "actor/sim/ground_contacts.h"
-#include "actor/sim/skeleton.h"
+#include "character/ground_contacts.h"
+#include "character/skeleton.h"
 
 namespace ragdoll::motion {
 
-using sim::Character;
-using sim::DataPtr;
-using sim::DecomposeHinges;
-using sim::GeomLowestPoint;
-using sim::Humanoid3dJoints;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Vec3;
+using character::Character;
+using character::DataPtr;
+using character::DecomposeHinges;
+using character::GeomLowestPoint;
+using character::Humanoid3dJoints;
+using character::MotionClip;
+using character::Pose;
+using character::Vec3;
 
 namespace {
 
@@ -45,16 +45,9 @@ std::array<Vec3, 8> BoxCorners(const mjModel* m, const mjData* d, int g) {
   return corners;
 }
 
-}  // namespace
-
-int ClipReport::Count(const std::string& kind) const {
-  return static_cast<int>(std::count_if(issues.begin(), issues.end(),
-                                        [&](const ClipIssue& i) { return i.kind == kind; }));
-}
-
-ClipReport InspectClip(const MotionClip& clip, const Character& character) {
-  const mjModel* m = character.model();
-  DataPtr d = character.MakeData();
+// The clip's own figures: its timing, joints, root travel and cycle, with the extremes that the
+// frame loop narrows down set to start.
+ClipReport ClipFigures(const MotionClip& clip) {
   ClipReport r;
   r.name = clip.name();
   r.frames = clip.num_frames();
@@ -70,8 +63,11 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
   r.root_height_min = INFINITY;
   r.root_height_max = -INFINITY;
   r.lowest_point = INFINITY;
+  return r;
+}
 
-  // Feet: the box geoms of each ankle body.
+// Feet: the box geoms of each ankle body.
+std::map<std::string, std::vector<int>> FootGeoms(const mjModel* m, const Character& character) {
   std::map<std::string, std::vector<int>> feet;
   for (const char* side : {"right_ankle", "left_ankle"}) {
     int body = character.BodyId(side);
@@ -79,12 +75,123 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
       if (m->geom_bodyid[g] == body && m->geom_type[g] == mjGEOM_BOX) feet[side].push_back(g);
     }
   }
+  return feet;
+}
+
+// Joint limits: the pose's rotations on the hinges, before the character would clamp them.
+void CheckJointLimits(const Character& character, const Pose& pose, int f, double t,
+                      ClipReport& r) {
+  std::vector<double> q(3);
+  const auto& joints = character.joints();
+  for (size_t j = 0; j < joints.size(); ++j) {
+    DecomposeHinges(joints[j].axes, pose.joint_rotations[j], q.data());
+    for (const auto& h : character.hinges()) {
+      if (h.joint != static_cast<int>(j)) continue;
+      const double angle = q[h.qpos_address - joints[j].qpos_address];
+      const double beyond = std::max(h.lower - angle, angle - h.upper);
+      if (beyond > kLimitTolerance) {
+        char detail[160];
+        std::snprintf(detail, sizeof(detail), "%s %.2f rad, range [%.2f, %.2f]", h.name.c_str(),
+                      angle, h.lower, h.upper);
+        r.issues.push_back({f, t, "joint_limit", detail});
+      }
+    }
+  }
+}
+
+// The body geometry's lowest point in this frame's kinematics, and whether it is under the floor.
+void CheckPenetration(const mjModel* m, const mjData* d, int f, double t, ClipReport& r) {
+  double lowest = INFINITY;
+  int lowest_body = 0;
+  for (int g = 0; g < m->ngeom; ++g) {
+    if (m->geom_bodyid[g] == 0) continue;
+    double z = GeomLowestPoint(m, d, g);
+    if (z < lowest) {
+      lowest = z;
+      lowest_body = m->geom_bodyid[g];
+    }
+  }
+  r.lowest_point = std::min(r.lowest_point, lowest);
+  if (lowest < -kPenetration) {
+    char detail[160];
+    std::snprintf(detail, sizeof(detail), "%s %.1f cm below the floor",
+                  mj_id2name(m, mjOBJ_BODY, lowest_body), -lowest * 100);
+    r.issues.push_back({f, t, "penetration", detail});
+  }
+}
+
+// A foot's lowest corner over its box geoms: its height, its index (-1 for no corner) and all
+// the corners of its box.
+double LowestCorner(const mjModel* m, const mjData* d, const std::vector<int>& geoms,
+                    std::array<Vec3, 8>* corners, int* lowest_corner) {
+  double foot_lowest = INFINITY;
+  for (int g : geoms) {
+    auto c = BoxCorners(m, d, g);
+    for (int i = 0; i < 8; ++i) {
+      if (c[i][2] < foot_lowest) {
+        foot_lowest = c[i][2];
+        *lowest_corner = i;
+        *corners = c;
+      }
+    }
+  }
+  return foot_lowest;
+}
+
+// The feet over the frames: how many frames each touches the floor in.
+struct FeetState {
   std::map<std::string, int> contact_frames;
   // Per foot: the previous frame's corners and which corner was lowest, if it was in contact.
   std::map<std::string, std::array<Vec3, 8>> previous_corners;
   std::map<std::string, int> previous_lowest;
-  std::vector<double> q(3);
-  const auto& joints = character.joints();
+};
+
+// One foot in frame f: counts its contact, and whether a planted corner slides.
+void CheckFoot(const MotionClip& clip, const mjModel* m, const mjData* d, int f, double t,
+               const std::string& side, const std::vector<int>& geoms, FeetState& state,
+               ClipReport& r) {
+  std::map<std::string, int>& contact_frames = state.contact_frames;
+  std::map<std::string, std::array<Vec3, 8>>& previous_corners = state.previous_corners;
+  std::map<std::string, int>& previous_lowest = state.previous_lowest;
+  std::array<Vec3, 8> corners{};
+  int lowest_corner = -1;
+  const double foot_lowest = LowestCorner(m, d, geoms, &corners, &lowest_corner);
+  const bool contact = foot_lowest < character::kGroundContactHeight;
+  if (contact) ++contact_frames[side];
+  if (contact && previous_lowest.count(side) && f > 0) {
+    // The corner that was lowest (planted) last frame: how fast did it move?
+    const Vec3& before = previous_corners[side][previous_lowest[side]];
+    const Vec3& now = corners[previous_lowest[side]];
+    const double dt = clip.frame_time(f) - clip.frame_time(f - 1);
+    const double speed = std::hypot(now[0] - before[0], now[1] - before[1]) / dt;
+    // Only a corner on the floor in both frames is planted (not a heel or toe lifting off).
+    if (before[2] < kPlanted && now[2] < kPlanted && speed > kSlidingSpeed) {
+      char detail[160];
+      std::snprintf(detail, sizeof(detail), "%s planted, slides at %.2f m/s", side.c_str(), speed);
+      r.issues.push_back({f, t, "foot_sliding", detail});
+    }
+  }
+  if (contact) {
+    previous_corners[side] = corners;
+    previous_lowest[side] = lowest_corner;
+  } else {
+    previous_lowest.erase(side);
+  }
+}
+
+}  // namespace
+
+int ClipReport::Count(const std::string& kind) const {
+  return static_cast<int>(std::count_if(issues.begin(), issues.end(),
+                                        [&](const ClipIssue& i) { return i.kind == kind; }));
+}
+
+ClipReport InspectClip(const MotionClip& clip, const Character& character) {
+  const mjModel* m = character.model();
+  DataPtr d = character.MakeData();
+  ClipReport r = ClipFigures(clip);
+  const std::map<std::string, std::vector<int>> feet = FootGeoms(m, character);
+  FeetState feet_state;
   for (int f = 0; f < r.frames; ++f) {
     const Pose& pose = clip.frame(f);
     const double t = clip.frame_time(f);
@@ -94,81 +201,18 @@ ClipReport InspectClip(const MotionClip& clip, const Character& character) {
       const Vec3& a = clip.frame(f - 1).root_position;
       r.root_path_length += std::hypot(pose.root_position[0] - a[0], pose.root_position[1] - a[1]);
     }
-    // Joint limits: the pose's rotations on the hinges, before the character would clamp them.
-    for (size_t j = 0; j < joints.size(); ++j) {
-      DecomposeHinges(joints[j].axes, pose.joint_rotations[j], q.data());
-      for (const auto& h : character.hinges()) {
-        if (h.joint != static_cast<int>(j)) continue;
-        const double angle = q[h.qpos_address - joints[j].qpos_address];
-        const double beyond = std::max(h.lower - angle, angle - h.upper);
-        if (beyond > kLimitTolerance) {
-          char detail[160];
-          std::snprintf(detail, sizeof(detail), "%s %.2f rad, range [%.2f, %.2f]", h.name.c_str(),
-                        angle, h.lower, h.upper);
-          r.issues.push_back({f, t, "joint_limit", detail});
-        }
-      }
-    }
+    CheckJointLimits(character, pose, f, t, r);
     character.PoseToQpos(pose, d->qpos);
     mj_kinematics(m, d.get());
-    double lowest = INFINITY;
-    int lowest_body = 0;
-    for (int g = 0; g < m->ngeom; ++g) {
-      if (m->geom_bodyid[g] == 0) continue;
-      double z = GeomLowestPoint(m, d.get(), g);
-      if (z < lowest) {
-        lowest = z;
-        lowest_body = m->geom_bodyid[g];
-      }
-    }
-    r.lowest_point = std::min(r.lowest_point, lowest);
-    if (lowest < -kPenetration) {
-      char detail[160];
-      std::snprintf(detail, sizeof(detail), "%s %.1f cm below the floor",
-                    mj_id2name(m, mjOBJ_BODY, lowest_body), -lowest * 100);
-      r.issues.push_back({f, t, "penetration", detail});
-    }
+    CheckPenetration(m, d.get(), f, t, r);
     for (const auto& [side, geoms] : feet) {
-      std::array<Vec3, 8> corners{};
-      int lowest_corner = -1;
-      double foot_lowest = INFINITY;
-      for (int g : geoms) {
-        auto c = BoxCorners(m, d.get(), g);
-        for (int i = 0; i < 8; ++i) {
-          if (c[i][2] < foot_lowest) {
-            foot_lowest = c[i][2];
-            lowest_corner = i;
-            corners = c;
-          }
-        }
-      }
-      const bool contact = foot_lowest < sim::kGroundContactHeight;
-      if (contact) ++contact_frames[side];
-      if (contact && previous_lowest.count(side) && f > 0) {
-        // The corner that was lowest (planted) last frame: how fast did it move?
-        const Vec3& before = previous_corners[side][previous_lowest[side]];
-        const Vec3& now = corners[previous_lowest[side]];
-        const double dt = clip.frame_time(f) - clip.frame_time(f - 1);
-        const double speed = std::hypot(now[0] - before[0], now[1] - before[1]) / dt;
-        // Only a corner on the floor in both frames is planted (not a heel or toe lifting off).
-        if (before[2] < kPlanted && now[2] < kPlanted && speed > kSlidingSpeed) {
-          char detail[160];
-          std::snprintf(detail, sizeof(detail), "%s planted, slides at %.2f m/s", side.c_str(),
-                        speed);
-          r.issues.push_back({f, t, "foot_sliding", detail});
-        }
-      }
-      if (contact) {
-        previous_corners[side] = corners;
-        previous_lowest[side] = lowest_corner;
-      } else {
-        previous_lowest.erase(side);
-      }
+      CheckFoot(clip, m, d.get(), f, t, side, geoms, feet_state, r);
     }
   }
+  std::map<std::string, int>& contact_frames = feet_state.contact_frames;
   r.contact_right = static_cast<double>(contact_frames["right_ankle"]) / r.frames;
   r.contact_left = static_cast<double>(contact_frames["left_ankle"]) / r.frames;
-  r.ground_contacts = sim::GroundContactFractions(clip, character);
+  r.ground_contacts = character::GroundContactFractions(clip, character);
   r.renormalized_rotations = clip.renormalized_rotations();
   r.max_norm_deviation = clip.max_norm_deviation();
   return r;

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 
 namespace ragdoll::motion {
 
@@ -25,10 +25,10 @@ struct ClipReport {
   double fps = 0;       // frames per second (mean)
   bool loop = false;
   std::vector<std::string> joints;
-  sim::Vec3 root_travel = {0, 0, 0};         // last frame's root position minus the first's
-  double root_path_length = 0;               // horizontal distance the root covers, metres
-  sim::Vec3 cycle_displacement = {0, 0, 0};  // a looping clip's root displacement per cycle
-  double cycle_yaw = 0;                      // and its turn per cycle, radians (counter-clockwise)
+  character::Vec3 root_travel = {0, 0, 0};         // last frame's root position minus the first's
+  double root_path_length = 0;                     // horizontal distance the root covers, metres
+  character::Vec3 cycle_displacement = {0, 0, 0};  // a looping clip's root displacement per cycle
+  double cycle_yaw = 0;  // and its turn per cycle, radians (counter-clockwise)
   double root_height_min = 0, root_height_max = 0;
   double contact_right = 0, contact_left = 0;  // fraction of frames the foot is on the floor
   // Every body whose geometry comes within 2 cm of the floor in some key frame, in skeleton
@@ -49,6 +49,6 @@ struct ClipReport {
 // of the floor, and slides when its lowest corner stays within 5 mm of the floor in two
 // consecutive frames yet moves faster than 0.3 m/s; a hinge angle more than 0.05 rad beyond its
 // range.
-ClipReport InspectClip(const sim::MotionClip& clip, const sim::Character& character);
+ClipReport InspectClip(const character::MotionClip& clip, const character::Character& character);
 
 }  // namespace ragdoll::motion

@@ -7,21 +7,21 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 #include "motion/foot_geometry.h"
 #include "motion/leg_ik.h"
 
 namespace ragdoll::motion {
 
-using sim::Character;
-using sim::DataPtr;
-using sim::FindJoint;
-using sim::GeomLowestPoint;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Quat;
-using sim::Rotate;
-using sim::Vec3;
+using character::Character;
+using character::DataPtr;
+using character::FindJoint;
+using character::GeomLowestPoint;
+using character::MotionClip;
+using character::Pose;
+using character::Quat;
+using character::Rotate;
+using character::Vec3;
 
 namespace {
 

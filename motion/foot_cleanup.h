@@ -12,8 +12,8 @@
 
 #include <array>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 
 namespace ragdoll::motion {
 
@@ -46,7 +46,9 @@ struct FootCleanupReport {
 
 // The clip with its feet fixed; `report` (optional) says what was done. The clip's floor is
 // z = 0. Throws std::invalid_argument for options that are not positive.
-sim::MotionClip FixFeet(const sim::MotionClip& clip, const sim::Character& character,
-                        const FootCleanupOptions& options, FootCleanupReport* report = nullptr);
+character::MotionClip FixFeet(const character::MotionClip& clip,
+                              const character::Character& character,
+                              const FootCleanupOptions& options,
+                              FootCleanupReport* report = nullptr);
 
 }  // namespace ragdoll::motion

@@ -6,11 +6,11 @@
 
 #include <vector>
 
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
 namespace ragdoll::motion {
 
 // The corners of `body`'s box geoms, in the body's frame (empty when it has none).
-std::vector<sim::Vec3> FootCorners(const mjModel* m, int body);
+std::vector<character::Vec3> FootCorners(const mjModel* m, int body);
 
 }  // namespace ragdoll::motion

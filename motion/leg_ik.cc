@@ -8,14 +8,14 @@
 
 namespace ragdoll::motion {
 
-using sim::Character;
-using sim::CharacterJoint;
-using sim::Conjugate;
-using sim::DataPtr;
-using sim::Multiply;
-using sim::Normalized;
-using sim::Quat;
-using sim::Vec3;
+using character::Character;
+using character::CharacterJoint;
+using character::Conjugate;
+using character::DataPtr;
+using character::Multiply;
+using character::Normalized;
+using character::Quat;
+using character::Vec3;
 
 namespace {
 

@@ -7,8 +7,8 @@
 
 #include <string>
 
-#include "actor/sim/character.h"
-#include "actor/sim/rotation.h"
+#include "character/character.h"
+#include "character/rotation.h"
 
 namespace ragdoll::motion {
 
@@ -33,8 +33,8 @@ struct LegIkResult {
 // returns the closest pose found and its error. `scratch` is a mjData of the character's model
 // the solver overwrites (nullptr: one is made for the call).
 // Throws std::invalid_argument for another side.
-LegIkResult SolveLegIk(const sim::Character& character, const std::string& side,
-                       const sim::Vec3& position, const sim::Quat& rotation, double* qpos,
-                       mjData* scratch = nullptr);
+LegIkResult SolveLegIk(const character::Character& character, const std::string& side,
+                       const character::Vec3& position, const character::Quat& rotation,
+                       double* qpos, mjData* scratch = nullptr);
 
 }  // namespace ragdoll::motion

@@ -11,14 +11,14 @@
 
 namespace ragdoll::motion {
 
-using sim::AxisAngle;
-using sim::Character;
-using sim::DataPtr;
-using sim::MotionClip;
-using sim::Multiply;
-using sim::Pose;
-using sim::Quat;
-using sim::Vec3;
+using character::AxisAngle;
+using character::Character;
+using character::DataPtr;
+using character::MotionClip;
+using character::Multiply;
+using character::Pose;
+using character::Quat;
+using character::Vec3;
 
 namespace {
 

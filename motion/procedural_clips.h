@@ -7,13 +7,13 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 
 namespace ragdoll::motion {
 
 struct AuthoredClip {
-  sim::MotionClip clip;
+  character::MotionClip clip;
   std::string description;
 };
 
@@ -32,6 +32,6 @@ struct AuthoredClip {
 // SolveLegIk for the others) so that planted feet stay flat and still on the floor. Throws
 // std::logic_error if a foot of the gaits could not be placed (a change that puts it out of the
 // leg's reach).
-std::vector<AuthoredClip> AuthorClips(const sim::Character& character);
+std::vector<AuthoredClip> AuthorClips(const character::Character& character);
 
 }  // namespace ragdoll::motion

@@ -8,43 +8,42 @@
 #include <filesystem>
 #include <sstream>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
+#include "character/vector.h"
 #include "common/config_section.h"
 
 namespace ragdoll::motion {
 
-using sim::AngleBetween;
-using sim::AxisAngle;
-using sim::Character;
-using sim::Conjugate;
-using sim::DataPtr;
-using sim::DecomposeHinges;
-using sim::FindJoint;
-using sim::HeadingOf;
-using sim::HingeAxes;
-using sim::Humanoid3dJoints;
-using sim::kIdentityQuat;
-using sim::MotionClip;
-using sim::Multiply;
-using sim::Normalized;
-using sim::Pose;
-using sim::Quat;
-using sim::Rotate;
-using sim::Vec3;
-using sim::YawOf;
+using character::Add;
+using character::AngleBetween;
+using character::AxisAngle;
+using character::Character;
+using character::Conjugate;
+using character::Cross;
+using character::DataPtr;
+using character::DecomposeHinges;
+using character::Dot;
+using character::FindJoint;
+using character::HeadingOf;
+using character::HingeAxes;
+using character::Humanoid3dJoints;
+using character::kIdentityQuat;
+using character::MotionClip;
+using character::Multiply;
+using character::Norm;
+using character::Normalized;
+using character::Pose;
+using character::Quat;
+using character::Rotate;
+using character::Scale;
+using character::Sub;
+using character::Vec3;
+using character::YawOf;
 
 namespace {
 
 using Mat3 = std::array<Vec3, 3>;  // rows
 
-Vec3 Sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 Add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
-Vec3 Scale(const Vec3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
-double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-double Norm(const Vec3& a) { return std::sqrt(Dot(a, a)); }
-Vec3 Cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
 Vec3 Apply(const Mat3& m, const Vec3& v) { return {Dot(m[0], v), Dot(m[1], v), Dot(m[2], v)}; }
 Mat3 Transpose(const Mat3& m) {
   Mat3 t;
@@ -594,6 +593,145 @@ void PlaceOnFloor(const Character& character, std::vector<Pose>* frames) {
   for (Pose& p : *frames) p.root_position[2] -= floor_height;
 }
 
+// The hinge order of --rotation-order (three of X, Y, Z, each once) and its BVH channels.
+HingeAxes RotationOrder(const std::string& rotation_order,
+                        std::vector<BvhChannel>* rotation_channels) {
+  if (rotation_order.size() != 3) {
+    throw ConfigError("rotation order '" + rotation_order + "': three of X, Y, Z");
+  }
+  HingeAxes order;
+  order.count = 3;
+  for (int i = 0; i < 3; ++i) {
+    char c = static_cast<char>(std::toupper(static_cast<unsigned char>(rotation_order[i])));
+    if (c < 'X' || c > 'Z') {
+      throw ConfigError("rotation order '" + rotation_order + "': three of X, Y, Z");
+    }
+    order.axis[i] = c - 'X';
+    order.sign[i] = 1;
+    rotation_channels->push_back(
+        static_cast<BvhChannel>(static_cast<int>(BvhChannel::kXrotation) + (c - 'X')));
+  }
+  if (order.axis[0] == order.axis[1] || order.axis[1] == order.axis[2] ||
+      order.axis[0] == order.axis[2]) {
+    throw ConfigError("rotation order '" + rotation_order + "': each axis once");
+  }
+  return order;
+}
+
+void CheckUniformFrameTimes(const MotionClip& clip) {
+  for (int f = 1; f + 1 < clip.num_frames(); ++f) {
+    if (std::abs(clip.frame_duration(f) - clip.frame_duration(0)) > 1e-6) {
+      throw ConfigError("clip '" + clip.name() + "': BVH needs uniform frame times (frame " +
+                        std::to_string(f) + " differs)");
+    }
+  }
+}
+
+// The character's rest positions, with the end sites' (head top, fingers, toe tips) added.
+std::map<std::string, Vec3> RestWithEndSites(const Character& character) {
+  std::map<std::string, Vec3> rest = CharacterRest(character);
+  rest["head_top"] = Add(rest["head"], {0, 0, 0.1});
+  for (const char* side : {"right_", "left_"}) {
+    const std::string s = side;
+    rest[s + "fingers"] = Add(rest[s + "wrist"], {0, 0, -0.08});
+    rest[s + "toe_tip"] = Add(rest[s + "toe"], {0.05, 0, 0});
+  }
+  return rest;
+}
+
+// Builds a BVH hierarchy joint by joint (a parent before its children): offsets from the rest
+// positions in BVH axes, position channels on the root, no channels on end sites.
+struct BvhHierarchy {
+  BvhMotion& bvh;
+  const std::map<std::string, Vec3>& rest;
+  const Mat3& to_bvh;
+  const JointMapping& naming;
+  const std::vector<BvhChannel>& rotation_channels;
+  double units_per_metre;
+  std::map<std::string, int> index = {};
+  std::vector<std::string> part_of = {};  // per BVH joint
+
+  std::string NameOf(const std::string& part) const {
+    auto it = naming.joints.find(part);
+    return it == naming.joints.end() ? part : it->second;
+  }
+
+  void Add(const std::string& part, const std::string& parent, bool end_site) {
+    BvhJoint j;
+    j.end_site = end_site;
+    j.name = end_site ? NameOf(parent) + "_end" : NameOf(part);
+    j.parent = parent.empty() ? -1 : index.at(parent);
+    if (!parent.empty()) {
+      j.offset = Scale(Apply(to_bvh, Sub(rest.at(part), rest.at(parent))), units_per_metre);
+    }
+    j.first_channel = bvh.channel_count;
+    if (!end_site) {
+      if (parent.empty()) {
+        j.channels = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition};
+      }
+      j.channels.insert(j.channels.end(), rotation_channels.begin(), rotation_channels.end());
+      bvh.channel_count += static_cast<int>(j.channels.size());
+      index[part] = static_cast<int>(bvh.joints.size());
+    }
+    bvh.joints.push_back(j);
+    part_of.push_back(part);
+  }
+};
+
+void AddHumanoid(BvhHierarchy& hierarchy) {
+  hierarchy.Add("root", "", false);
+  // Head, hands and toes are joints (as in mocap files) that never turn, each with an end site.
+  hierarchy.Add("chest", "root", false);
+  hierarchy.Add("neck", "chest", false);
+  hierarchy.Add("head", "neck", false);
+  hierarchy.Add("head_top", "head", true);
+  for (const char* side : {"right_", "left_"}) {
+    const std::string s = side;
+    hierarchy.Add(s + "shoulder", "chest", false);
+    hierarchy.Add(s + "elbow", s + "shoulder", false);
+    hierarchy.Add(s + "wrist", s + "elbow", false);
+    hierarchy.Add(s + "fingers", s + "wrist", true);
+  }
+  for (const char* side : {"right_", "left_"}) {
+    const std::string s = side;
+    hierarchy.Add(s + "hip", "root", false);
+    hierarchy.Add(s + "knee", s + "hip", false);
+    hierarchy.Add(s + "ankle", s + "knee", false);
+    hierarchy.Add(s + "toe", s + "ankle", false);
+    hierarchy.Add(s + "toe_tip", s + "toe", true);
+  }
+}
+
+// One frame's channel values: the root's position, then each joint's rotation as `order`'s
+// angles in degrees, in BVH axes.
+std::vector<double> BvhFrame(const BvhMotion& bvh, const std::vector<std::string>& part_of,
+                             const Pose& pose, const HingeAxes& order, const Mat3& to_bvh,
+                             const Quat& to_bvh_q, double units_per_metre) {
+  auto rotation_in_bvh = [&](const Quat& q) {
+    return Normalized(Multiply(Multiply(to_bvh_q, q), Conjugate(to_bvh_q)));
+  };
+  constexpr double kDegrees = 180.0 / M_PI;
+  std::vector<double> values;
+  values.reserve(bvh.channel_count);
+  for (size_t ji = 0; ji < bvh.joints.size(); ++ji) {
+    const BvhJoint& j = bvh.joints[ji];
+    if (j.end_site) continue;
+    Quat local;
+    if (j.parent < 0) {
+      Vec3 p = Scale(Apply(to_bvh, pose.root_position), units_per_metre);
+      values.insert(values.end(), p.begin(), p.end());
+      local = pose.root_rotation;
+    } else {
+      const int skeleton_joint = FindJoint(part_of[ji]);
+      local = skeleton_joint < 0 ? kIdentityQuat : pose.joint_rotations[skeleton_joint];
+    }
+    double angles[3];
+    DecomposeHinges(order, rotation_in_bvh(local), angles);
+    for (double a : angles) values.push_back(a * kDegrees);
+  }
+  return values;
+}
+
 }  // namespace
 
 MotionClip Resampled(const MotionClip& clip, double fps) {
@@ -673,118 +811,22 @@ MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping
 
 BvhMotion ClipToBvh(const MotionClip& clip, const Character& character, const JointMapping& naming,
                     const ExportOptions& options) {
-  if (options.rotation_order.size() != 3) {
-    throw ConfigError("rotation order '" + options.rotation_order + "': three of X, Y, Z");
-  }
-  HingeAxes order;
-  order.count = 3;
   std::vector<BvhChannel> rotation_channels;
-  for (int i = 0; i < 3; ++i) {
-    char c = static_cast<char>(std::toupper(static_cast<unsigned char>(options.rotation_order[i])));
-    if (c < 'X' || c > 'Z') {
-      throw ConfigError("rotation order '" + options.rotation_order + "': three of X, Y, Z");
-    }
-    order.axis[i] = c - 'X';
-    order.sign[i] = 1;
-    rotation_channels.push_back(
-        static_cast<BvhChannel>(static_cast<int>(BvhChannel::kXrotation) + (c - 'X')));
-  }
-  if (order.axis[0] == order.axis[1] || order.axis[1] == order.axis[2] ||
-      order.axis[0] == order.axis[2]) {
-    throw ConfigError("rotation order '" + options.rotation_order + "': each axis once");
-  }
-  for (int f = 1; f + 1 < clip.num_frames(); ++f) {
-    if (std::abs(clip.frame_duration(f) - clip.frame_duration(0)) > 1e-6) {
-      throw ConfigError("clip '" + clip.name() + "': BVH needs uniform frame times (frame " +
-                        std::to_string(f) + " differs)");
-    }
-  }
+  const HingeAxes order = RotationOrder(options.rotation_order, &rotation_channels);
+  CheckUniformFrameTimes(clip);
   // Character coordinates -> BVH: Y-up puts forward on +z, left on +x, up on +y.
   const Mat3 to_bvh = options.y_up ? Mat3{Vec3{0, 1, 0}, Vec3{0, 0, 1}, Vec3{1, 0, 0}}
                                    : Mat3{Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}};
   const Quat to_bvh_q = ToQuat(to_bvh);
-  auto rotation_in_bvh = [&](const Quat& q) {
-    return Normalized(Multiply(Multiply(to_bvh_q, q), Conjugate(to_bvh_q)));
-  };
-  auto name_of = [&](const std::string& part) {
-    auto it = naming.joints.find(part);
-    return it == naming.joints.end() ? part : it->second;
-  };
-  std::map<std::string, Vec3> rest = CharacterRest(character);
-  rest["head_top"] = Add(rest["head"], {0, 0, 0.1});
-  for (const char* side : {"right_", "left_"}) {
-    const std::string s = side;
-    rest[s + "fingers"] = Add(rest[s + "wrist"], {0, 0, -0.08});
-    rest[s + "toe_tip"] = Add(rest[s + "toe"], {0.05, 0, 0});
-  }
+  const std::map<std::string, Vec3> rest = RestWithEndSites(character);
   BvhMotion bvh;
   bvh.origin = clip.name() + ".bvh";
   bvh.frame_time = clip.frame_duration(0);
-  std::map<std::string, int> index;
-  std::vector<std::string> part_of;  // per BVH joint
-  auto add = [&](const std::string& part, const std::string& parent, bool end_site) {
-    BvhJoint j;
-    j.end_site = end_site;
-    j.name = end_site ? name_of(parent) + "_end" : name_of(part);
-    j.parent = parent.empty() ? -1 : index.at(parent);
-    if (!parent.empty()) {
-      j.offset = Scale(Apply(to_bvh, Sub(rest.at(part), rest.at(parent))), options.units_per_metre);
-    }
-    j.first_channel = bvh.channel_count;
-    if (!end_site) {
-      if (parent.empty()) {
-        j.channels = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition};
-      }
-      j.channels.insert(j.channels.end(), rotation_channels.begin(), rotation_channels.end());
-      bvh.channel_count += static_cast<int>(j.channels.size());
-      index[part] = static_cast<int>(bvh.joints.size());
-    }
-    bvh.joints.push_back(j);
-    part_of.push_back(part);
-  };
-  add("root", "", false);
-  // Head, hands and toes are joints (as in mocap files) that never turn, each with an end site.
-  add("chest", "root", false);
-  add("neck", "chest", false);
-  add("head", "neck", false);
-  add("head_top", "head", true);
-  for (const char* side : {"right_", "left_"}) {
-    const std::string s = side;
-    add(s + "shoulder", "chest", false);
-    add(s + "elbow", s + "shoulder", false);
-    add(s + "wrist", s + "elbow", false);
-    add(s + "fingers", s + "wrist", true);
-  }
-  for (const char* side : {"right_", "left_"}) {
-    const std::string s = side;
-    add(s + "hip", "root", false);
-    add(s + "knee", s + "hip", false);
-    add(s + "ankle", s + "knee", false);
-    add(s + "toe", s + "ankle", false);
-    add(s + "toe_tip", s + "toe", true);
-  }
-  constexpr double kDegrees = 180.0 / M_PI;
+  BvhHierarchy hierarchy{bvh, rest, to_bvh, naming, rotation_channels, options.units_per_metre};
+  AddHumanoid(hierarchy);
   for (int f = 0; f < clip.num_frames(); ++f) {
-    const Pose& pose = clip.frame(f);
-    std::vector<double> values;
-    values.reserve(bvh.channel_count);
-    for (size_t ji = 0; ji < bvh.joints.size(); ++ji) {
-      const BvhJoint& j = bvh.joints[ji];
-      if (j.end_site) continue;
-      Quat local;
-      if (j.parent < 0) {
-        Vec3 p = Scale(Apply(to_bvh, pose.root_position), options.units_per_metre);
-        values.insert(values.end(), p.begin(), p.end());
-        local = pose.root_rotation;
-      } else {
-        const int skeleton_joint = FindJoint(part_of[ji]);
-        local = skeleton_joint < 0 ? kIdentityQuat : pose.joint_rotations[skeleton_joint];
-      }
-      double angles[3];
-      DecomposeHinges(order, rotation_in_bvh(local), angles);
-      for (double a : angles) values.push_back(a * kDegrees);
-    }
-    bvh.frames.push_back(std::move(values));
+    bvh.frames.push_back(BvhFrame(bvh, hierarchy.part_of, clip.frame(f), order, to_bvh, to_bvh_q,
+                                  options.units_per_metre));
   }
   return bvh;
 }

@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 #include "motion/bvh.h"
 #include "motion/skeleton_animation.h"
 
@@ -56,12 +56,12 @@ struct ImportOptions {
 // Throws ConfigError naming the file and the problem (no root joint, an unusable rest pose,
 // a bad frame range). Mapped joints the file lacks are reported in `warnings` and stay at rest;
 // decisions worth knowing (the foot alignment found) are reported there too.
-sim::MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
-                         const sim::Character& character, const ImportOptions& options,
-                         std::vector<std::string>* warnings = nullptr);
+character::MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping,
+                               const character::Character& character, const ImportOptions& options,
+                               std::vector<std::string>* warnings = nullptr);
 
 // The clip at `fps`: whole intervals over the same duration (a loop still closes exactly).
-sim::MotionClip Resampled(const sim::MotionClip& clip, double fps);
+character::MotionClip Resampled(const character::MotionClip& clip, double fps);
 
 struct ExportOptions {
   std::string rotation_order = "ZXY";  // channel order of every joint's rotation
@@ -71,7 +71,7 @@ struct ExportOptions {
 
 // The clip on the character's skeleton as BVH, joints named by `naming` (e.g. the CMU preset),
 // one frame per clip key frame (the clip's own frame times must be uniform).
-BvhMotion ClipToBvh(const sim::MotionClip& clip, const sim::Character& character,
+BvhMotion ClipToBvh(const character::MotionClip& clip, const character::Character& character,
                     const JointMapping& naming, const ExportOptions& options);
 std::string FormatBvh(const BvhMotion& bvh);
 

@@ -11,10 +11,10 @@
 
 namespace ragdoll::motion {
 
-using sim::Character;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Vec3;
+using character::Character;
+using character::MotionClip;
+using character::Pose;
+using character::Vec3;
 
 namespace {
 
@@ -45,7 +45,7 @@ struct ClipTrack {
 
 ClipTrack TrackClip(const MotionClip& clip, const Character& character) {
   const mjModel* m = character.model();
-  sim::DataPtr d = character.MakeData();
+  character::DataPtr d = character.MakeData();
   const int n = clip.num_frames();
   ClipTrack track;
   std::array<SoleTrack, 2>& soles = track.soles;
@@ -108,6 +108,174 @@ bool FootImpliedVelocity(const SoleTrack& sole, int f, double dt, double plant_h
   return true;
 }
 
+// The root's horizontal velocity over each interval as a weight-bearing foot implies it, and
+// whether a foot bears weight there at all.
+struct FootSupport {
+  std::vector<Vec3> velocity;   // [interval]
+  std::vector<bool> supported;  // [interval]
+};
+
+FootSupport TrackSupport(const MotionClip& clip, const ClipTrack& track, double plant_height) {
+  const int intervals = clip.num_frames() - 1;
+  FootSupport support;
+  std::vector<Vec3>& velocity = support.velocity;
+  std::vector<bool>& supported = support.supported;
+  velocity.assign(intervals, {0, 0, 0});
+  supported.assign(intervals, false);
+  // One foot carries the estimate at a time: the one already bearing weight keeps it while it
+  // stays down, so that in double support a foot still landing (its heel sliding onto the
+  // floor) does not blend in. A looping clip's first intervals follow on from its last.
+  int carrier = -1;
+  for (int pass = clip.loop() ? 0 : 1; pass < 2; ++pass) {
+    for (int f = 0; f < intervals; ++f) {
+      const double dt = clip.frame_duration(f);
+      bool down[2];
+      Vec3 implied[2];
+      double above[2];
+      for (int s = 0; s < 2; ++s) {
+        down[s] = FootImpliedVelocity(track.soles[s], f, dt, plant_height, &implied[s], &above[s]);
+      }
+      if (carrier < 0 || !down[carrier]) {
+        carrier = down[0] && (!down[1] || above[0] <= above[1]) ? 0 : down[1] ? 1 : -1;
+      }
+      supported[f] = carrier >= 0;
+      if (supported[f]) velocity[f] = implied[carrier];
+    }
+  }
+  return support;
+}
+
+// How the planted feet slide, and whether that makes the clip one captured in place (the report's
+// slide figures and in_place). Returns the time some foot bears weight, s.
+double MeasureSlide(const MotionClip& clip, const FootSupport& support,
+                    const RootMotionOptions& options, RootMotionReport& r) {
+  const int intervals = clip.num_frames() - 1;
+  const std::vector<Vec3>& velocity = support.velocity;
+  const std::vector<bool>& supported = support.supported;
+  double support_time = 0, speed_sum = 0;
+  Vec3 slide_sum = {0, 0, 0};
+  for (int f = 0; f < intervals; ++f) {
+    if (!supported[f]) continue;
+    const double dt = clip.frame_duration(f);
+    support_time += dt;
+    speed_sum += Horizontal(velocity[f]) * dt;
+    for (int i = 0; i < 2; ++i) slide_sum[i] -= velocity[f][i] * dt;
+  }
+  r.support_fraction = support_time / clip.duration();
+  if (support_time > 0) {
+    r.slide_velocity = {slide_sum[0] / support_time, slide_sum[1] / support_time, 0};
+    r.slide_coherence = speed_sum > 0 ? Horizontal(slide_sum) / speed_sum : 0;
+  }
+  const double slide = Horizontal(r.slide_velocity);
+  r.in_place = slide >= options.min_slide_speed && r.slide_coherence >= options.min_coherence &&
+               r.support_fraction >= options.min_support &&
+               r.root_speed <= options.max_root_ratio * slide;
+  return support_time;
+}
+
+// A single interval far from both supported neighbours is a glitch of the capture (a foot
+// rotation flipping for a frame): the neighbours' median replaces it.
+void RemoveGlitches(const MotionClip& clip, FootSupport& support) {
+  const int intervals = clip.num_frames() - 1;
+  std::vector<Vec3>& velocity = support.velocity;
+  const std::vector<bool>& supported = support.supported;
+  const std::vector<Vec3> raw = velocity;
+  auto neighbour = [&](int f, int step) {
+    const int g = f + step;
+    if (!clip.loop() && (g < 0 || g >= intervals)) return -1;
+    const int w = (g + intervals) % intervals;
+    return supported[w] ? w : -1;
+  };
+  for (int f = 0; f < intervals; ++f) {
+    const int a = neighbour(f, -1), b = neighbour(f, 1);
+    if (!supported[f] || a < 0 || b < 0) continue;
+    for (int i = 0; i < 2; ++i) velocity[f][i] = Median3(raw[a][i], raw[f][i], raw[b][i]);
+  }
+}
+
+// The clip's own centre-of-mass velocity, with single-interval glitches (a foot pushed
+// through the floor for a frame) replaced by the median of the interval and its neighbours.
+std::vector<Vec3> OwnComVelocity(const MotionClip& clip, const ClipTrack& track) {
+  const int intervals = clip.num_frames() - 1;
+  std::vector<Vec3> com_raw(intervals), own(intervals);
+  for (int f = 0; f < intervals; ++f) {
+    for (int i = 0; i < 2; ++i) {
+      com_raw[f][i] = (track.com[f + 1][i] - track.com[f][i]) / clip.frame_duration(f);
+    }
+    com_raw[f][2] = 0;
+  }
+  for (int f = 0; f < intervals; ++f) {
+    const bool ends = !clip.loop() && (f == 0 || f + 1 == intervals);
+    const Vec3& a = com_raw[(f - 1 + intervals) % intervals];
+    const Vec3& b = com_raw[(f + 1) % intervals];
+    own[f] = ends ? com_raw[f]
+                  : Vec3{Median3(a[0], com_raw[f][0], b[0]), Median3(a[1], com_raw[f][1], b[1]), 0};
+  }
+  return own;
+}
+
+// Where no foot bears weight (a run's flight) the body is ballistic: its centre of mass moves
+// at a constant horizontal velocity. The root's velocity there is the centre of mass's,
+// interpolated between the supported intervals around the gap (whose true centre-of-mass
+// velocity is the root's plus the clip's own centre-of-mass motion), less the clip's own.
+std::vector<Vec3> FillFlights(const MotionClip& clip, const FootSupport& support,
+                              const std::vector<Vec3>& own) {
+  const int intervals = clip.num_frames() - 1;
+  const std::vector<Vec3>& velocity = support.velocity;
+  const std::vector<bool>& supported = support.supported;
+  std::vector<Vec3> filled = velocity;
+  for (int f = 0; f < intervals; ++f) {
+    if (supported[f]) continue;
+    // Nearest supported intervals each way, and how many intervals away (frames are evenly
+    // spaced in every format read).
+    int before = -1, after = -1, to_before = 0, to_after = 0;
+    for (int k = 1; k < intervals && before < 0; ++k) {
+      if (f - k < 0 && !clip.loop()) break;
+      const int g = (f - k + intervals) % intervals;
+      if (supported[g]) before = g, to_before = k;
+    }
+    for (int k = 1; k < intervals && after < 0; ++k) {
+      if (f + k >= intervals && !clip.loop()) break;
+      const int g = (f + k) % intervals;
+      if (supported[g]) after = g, to_after = k;
+    }
+    if (before < 0) before = after;
+    if (after < 0) after = before;
+    const double alpha =
+        to_before + to_after > 0 ? static_cast<double>(to_before) / (to_before + to_after) : 0.5;
+    for (int i = 0; i < 2; ++i) {
+      const double com = (1 - alpha) * (velocity[before][i] + own[before][i]) +
+                         alpha * (velocity[after][i] + own[after][i]);
+      filled[f][i] = com - own[f][i];
+    }
+  }
+  return filled;
+}
+
+// The clip with its root moved on at `filled` (the root's velocity per interval), and the travel
+// that added.
+MotionClip MoveRoot(const MotionClip& clip, const std::vector<Vec3>& filled, RootMotionReport& r) {
+  const int n = clip.num_frames();
+  const int intervals = n - 1;
+  std::vector<Pose> frames(n);
+  std::vector<double> durations(n);
+  Vec3 offset = {0, 0, 0};
+  for (int f = 0; f < n; ++f) {
+    frames[f] = clip.frame(f);
+    durations[f] = clip.frame_duration(f);
+    for (int i = 0; i < 2; ++i) frames[f].root_position[i] += offset[i];
+    if (f < intervals) {
+      for (int i = 0; i < 2; ++i) offset[i] += filled[f][i] * durations[f];
+    }
+  }
+  r.reconstructed = true;
+  for (int i = 0; i < 2; ++i) {
+    r.added_travel[i] = frames[n - 1].root_position[i] - clip.frame(n - 1).root_position[i];
+  }
+  return MotionClip(clip.name(), clip.loop(), std::move(durations), std::move(frames),
+                    clip.cycle_transform());
+}
+
 }  // namespace
 
 RootMotion ParseRootMotion(const std::string& text) {
@@ -145,134 +313,18 @@ MotionClip ReconstructRootMotion(const MotionClip& clip, const Character& charac
   RootMotionReport& r = report ? *report : local;
   r = RootMotionReport{};
   const int n = clip.num_frames();
-  const int intervals = n - 1;
   const Vec3 first = clip.frame(0).root_position, last = clip.frame(n - 1).root_position;
   r.root_speed = Horizontal({last[0] - first[0], last[1] - first[1], 0}) / clip.duration();
   if (mode == RootMotion::kKeep) return clip;
 
   const ClipTrack track = TrackClip(clip, character);
-  std::vector<Vec3> velocity(intervals, {0, 0, 0});
-  std::vector<bool> supported(intervals, false);
-  double support_time = 0, speed_sum = 0;
-  Vec3 slide_sum = {0, 0, 0};
-  // One foot carries the estimate at a time: the one already bearing weight keeps it while it
-  // stays down, so that in double support a foot still landing (its heel sliding onto the
-  // floor) does not blend in. A looping clip's first intervals follow on from its last.
-  int carrier = -1;
-  for (int pass = clip.loop() ? 0 : 1; pass < 2; ++pass) {
-    for (int f = 0; f < intervals; ++f) {
-      const double dt = clip.frame_duration(f);
-      bool down[2];
-      Vec3 implied[2];
-      double above[2];
-      for (int s = 0; s < 2; ++s) {
-        down[s] = FootImpliedVelocity(track.soles[s], f, dt, options.plant_height, &implied[s],
-                                      &above[s]);
-      }
-      if (carrier < 0 || !down[carrier]) {
-        carrier = down[0] && (!down[1] || above[0] <= above[1]) ? 0 : down[1] ? 1 : -1;
-      }
-      supported[f] = carrier >= 0;
-      if (supported[f]) velocity[f] = implied[carrier];
-    }
-  }
-  for (int f = 0; f < intervals; ++f) {
-    if (!supported[f]) continue;
-    const double dt = clip.frame_duration(f);
-    support_time += dt;
-    speed_sum += Horizontal(velocity[f]) * dt;
-    for (int i = 0; i < 2; ++i) slide_sum[i] -= velocity[f][i] * dt;
-  }
-  r.support_fraction = support_time / clip.duration();
-  if (support_time > 0) {
-    r.slide_velocity = {slide_sum[0] / support_time, slide_sum[1] / support_time, 0};
-    r.slide_coherence = speed_sum > 0 ? Horizontal(slide_sum) / speed_sum : 0;
-  }
-  const double slide = Horizontal(r.slide_velocity);
-  r.in_place = slide >= options.min_slide_speed && r.slide_coherence >= options.min_coherence &&
-               r.support_fraction >= options.min_support &&
-               r.root_speed <= options.max_root_ratio * slide;
+  FootSupport support = TrackSupport(clip, track, options.plant_height);
+  const double support_time = MeasureSlide(clip, support, options, r);
   if (support_time == 0 || (mode == RootMotion::kAuto && !r.in_place)) return clip;
 
-  // A single interval far from both supported neighbours is a glitch of the capture (a foot
-  // rotation flipping for a frame): the neighbours' median replaces it.
-  const std::vector<Vec3> raw = velocity;
-  auto neighbour = [&](int f, int step) {
-    const int g = f + step;
-    if (!clip.loop() && (g < 0 || g >= intervals)) return -1;
-    const int w = (g + intervals) % intervals;
-    return supported[w] ? w : -1;
-  };
-  for (int f = 0; f < intervals; ++f) {
-    const int a = neighbour(f, -1), b = neighbour(f, 1);
-    if (!supported[f] || a < 0 || b < 0) continue;
-    for (int i = 0; i < 2; ++i) velocity[f][i] = Median3(raw[a][i], raw[f][i], raw[b][i]);
-  }
-
-  // Where no foot bears weight (a run's flight) the body is ballistic: its centre of mass moves
-  // at a constant horizontal velocity. The root's velocity there is the centre of mass's,
-  // interpolated between the supported intervals around the gap (whose true centre-of-mass
-  // velocity is the root's plus the clip's own centre-of-mass motion), less the clip's own.
-  // The clip's own centre-of-mass velocity, with single-interval glitches (a foot pushed
-  // through the floor for a frame) replaced by the median of the interval and its neighbours.
-  std::vector<Vec3> com_raw(intervals), own(intervals);
-  for (int f = 0; f < intervals; ++f) {
-    for (int i = 0; i < 2; ++i) {
-      com_raw[f][i] = (track.com[f + 1][i] - track.com[f][i]) / clip.frame_duration(f);
-    }
-    com_raw[f][2] = 0;
-  }
-  for (int f = 0; f < intervals; ++f) {
-    const bool ends = !clip.loop() && (f == 0 || f + 1 == intervals);
-    const Vec3& a = com_raw[(f - 1 + intervals) % intervals];
-    const Vec3& b = com_raw[(f + 1) % intervals];
-    own[f] = ends ? com_raw[f]
-                  : Vec3{Median3(a[0], com_raw[f][0], b[0]), Median3(a[1], com_raw[f][1], b[1]), 0};
-  }
-  std::vector<Vec3> filled = velocity;
-  for (int f = 0; f < intervals; ++f) {
-    if (supported[f]) continue;
-    // Nearest supported intervals each way, and how many intervals away (frames are evenly
-    // spaced in every format read).
-    int before = -1, after = -1, to_before = 0, to_after = 0;
-    for (int k = 1; k < intervals && before < 0; ++k) {
-      if (f - k < 0 && !clip.loop()) break;
-      const int g = (f - k + intervals) % intervals;
-      if (supported[g]) before = g, to_before = k;
-    }
-    for (int k = 1; k < intervals && after < 0; ++k) {
-      if (f + k >= intervals && !clip.loop()) break;
-      const int g = (f + k) % intervals;
-      if (supported[g]) after = g, to_after = k;
-    }
-    if (before < 0) before = after;
-    if (after < 0) after = before;
-    const double alpha =
-        to_before + to_after > 0 ? static_cast<double>(to_before) / (to_before + to_after) : 0.5;
-    for (int i = 0; i < 2; ++i) {
-      const double com = (1 - alpha) * (velocity[before][i] + own[before][i]) +
-                         alpha * (velocity[after][i] + own[after][i]);
-      filled[f][i] = com - own[f][i];
-    }
-  }
-
-  std::vector<Pose> frames(n);
-  std::vector<double> durations(n);
-  Vec3 offset = {0, 0, 0};
-  for (int f = 0; f < n; ++f) {
-    frames[f] = clip.frame(f);
-    durations[f] = clip.frame_duration(f);
-    for (int i = 0; i < 2; ++i) frames[f].root_position[i] += offset[i];
-    if (f < intervals) {
-      for (int i = 0; i < 2; ++i) offset[i] += filled[f][i] * durations[f];
-    }
-  }
-  r.reconstructed = true;
-  for (int i = 0; i < 2; ++i) {
-    r.added_travel[i] = frames[n - 1].root_position[i] - clip.frame(n - 1).root_position[i];
-  }
-  return MotionClip(clip.name(), clip.loop(), std::move(durations), std::move(frames),
-                    clip.cycle_transform());
+  RemoveGlitches(clip, support);
+  const std::vector<Vec3> own = OwnComVelocity(clip, track);
+  return MoveRoot(clip, FillFlights(clip, support, own), r);
 }
 
 }  // namespace ragdoll::motion

@@ -7,8 +7,8 @@
 
 #include <string>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 
 namespace ragdoll::motion {
 
@@ -27,12 +27,12 @@ struct RootMotionReport {
   // the planted contact points and how consistently they move that way (|mean| / mean |v|: 1
   // when every planted foot slides the same way, near 0 for feet pivoting in a turn on the spot).
   double root_speed = 0;  // m/s
-  sim::Vec3 slide_velocity = {0, 0, 0};
+  character::Vec3 slide_velocity = {0, 0, 0};
   double slide_coherence = 0;
   double support_fraction = 0;
-  bool in_place = false;               // the detector's verdict
-  bool reconstructed = false;          // the root was rebuilt (auto and in place, or feet)
-  sim::Vec3 added_travel = {0, 0, 0};  // m: horizontal travel given to the root over the clip
+  bool in_place = false;                     // the detector's verdict
+  bool reconstructed = false;                // the root was rebuilt (auto and in place, or feet)
+  character::Vec3 added_travel = {0, 0, 0};  // m: horizontal travel given to the root over the clip
   // One line for `motion import`.
   std::string Summary() const;
 };
@@ -51,8 +51,9 @@ struct RootMotionOptions {
 // The clip with its root's horizontal travel rebuilt (or `clip` unchanged: see `mode`); heights,
 // rotations and timing are kept, so a turn in place stays a turn. `report` (optional) says what
 // was found and done.
-sim::MotionClip ReconstructRootMotion(const sim::MotionClip& clip, const sim::Character& character,
-                                      RootMotion mode, RootMotionReport* report = nullptr,
-                                      const RootMotionOptions& options = {});
+character::MotionClip ReconstructRootMotion(const character::MotionClip& clip,
+                                            const character::Character& character, RootMotion mode,
+                                            RootMotionReport* report = nullptr,
+                                            const RootMotionOptions& options = {});
 
 }  // namespace ragdoll::motion

@@ -16,10 +16,10 @@
 
 namespace ragdoll::motion {
 
-using sim::Normalized;
-using sim::Quat;
-using sim::Slerp;
-using sim::Vec3;
+using character::Normalized;
+using character::Quat;
+using character::Slerp;
+using character::Vec3;
 
 namespace {
 

@@ -1,19 +1,20 @@
 #include "motion/skeleton_animation.h"
 
+#include "character/vector.h"
+
 namespace ragdoll::motion {
 
-using sim::kIdentityQuat;
-using sim::Multiply;
-using sim::Normalized;
-using sim::Quat;
-using sim::Rotate;
-using sim::Vec3;
+using character::Add;
+using character::kIdentityQuat;
+using character::Multiply;
+using character::Normalized;
+using character::Quat;
+using character::Rotate;
+using character::Vec3;
 
 namespace {
 
 std::string Bare(const std::string& name) { return name.substr(name.rfind(':') + 1); }
-
-Vec3 Add(const Vec3& a, const Vec3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
 
 // World poses of every joint for local rotations and translations given per joint.
 template <typename Local>

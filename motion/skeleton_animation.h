@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 #include "motion/bvh.h"
 
 namespace ragdoll::motion {
@@ -20,8 +20,8 @@ struct AnimatedJoint {
 };
 
 struct JointPose {
-  sim::Quat rotation = sim::kIdentityQuat;  // world frame of the file
-  sim::Vec3 position = {0, 0, 0};           // file units
+  character::Quat rotation = character::kIdentityQuat;  // world frame of the file
+  character::Vec3 position = {0, 0, 0};                 // file units
 };
 
 struct SkeletonAnimation {

@@ -1,4 +1,4 @@
-#include "cli/render/renderer.h"
+#include "render/renderer.h"
 
 #include <GLFW/glfw3.h>
 

@@ -1,12 +1,12 @@
-#include "cli/render/video.h"
+#include "render/video.h"
 
 #include <signal.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
-#include <cerrno>
 #include <filesystem>
 #include <stdexcept>
+
+#include "common/process.h"
 
 namespace ragdoll::render {
 
@@ -33,30 +33,14 @@ VideoWriter::VideoWriter(const std::string& path, int width, int height, double 
     throw std::runtime_error(path + ": write .mp4, .gif or .png");
   }
   args.push_back(path);
-  int fds[2];
-  if (pipe(fds) != 0) throw std::runtime_error("pipe: " + std::to_string(errno));
-  pid_ = fork();
-  if (pid_ == 0) {
-    dup2(fds[0], STDIN_FILENO);
-    close(fds[0]);
-    close(fds[1]);
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    execvp("ffmpeg", argv.data());
-    _exit(127);
-  }
-  close(fds[0]);
-  pipe_ = fds[1];
-  if (pid_ < 0) {
-    close(pipe_);
-    throw std::runtime_error("cannot start ffmpeg");
-  }
+  ChildProcess::Options options;
+  options.input = ChildProcess::Input::kPipe;
+  ffmpeg_ = std::make_unique<ChildProcess>(args, options);
   signal(SIGPIPE, SIG_IGN);  // a failed ffmpeg shows as a write error, not a dead process
 }
 
 VideoWriter::~VideoWriter() {
-  if (pid_ > 0) {
+  if (ffmpeg_) {
     try {
       Close();
     } catch (const std::exception&) {
@@ -66,23 +50,18 @@ VideoWriter::~VideoWriter() {
 
 void VideoWriter::Write(const std::vector<unsigned char>& rgb) {
   if (single_frame_ && frames_ > 0) return;
-  size_t sent = 0;
-  while (sent < rgb.size()) {
-    ssize_t n = write(pipe_, rgb.data() + sent, rgb.size() - sent);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) throw std::runtime_error(path_ + ": ffmpeg stopped taking frames");
-    sent += static_cast<size_t>(n);
+  if (!ffmpeg_ || !ffmpeg_->Write(rgb.data(), rgb.size())) {
+    throw std::runtime_error(path_ + ": ffmpeg stopped taking frames");
   }
   ++frames_;
 }
 
 void VideoWriter::Close() {
-  if (pid_ <= 0) return;
-  close(pipe_);
-  int status = 0;
-  while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-  }
-  pid_ = -1;
+  if (!ffmpeg_) return;
+  ffmpeg_->CloseStdin();
+  ffmpeg_->Wait();
+  const int status = ffmpeg_->status();
+  ffmpeg_.reset();
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
     throw std::runtime_error(
         path_ + ": ffmpeg failed (exit " +

@@ -2,10 +2,13 @@
 // frame).
 #pragma once
 
-#include <sys/types.h>
-
+#include <memory>
 #include <string>
 #include <vector>
+
+namespace ragdoll {
+class ChildProcess;
+}
 
 namespace ragdoll::render {
 
@@ -26,8 +29,7 @@ class VideoWriter {
 
  private:
   std::string path_;
-  pid_t pid_ = -1;
-  int pipe_ = -1;
+  std::unique_ptr<ChildProcess> ffmpeg_;  // null once closed
   int frames_ = 0;
   bool single_frame_ = false;
 };

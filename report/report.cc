@@ -1,4 +1,4 @@
-#include "cli/report.h"
+#include "report/report.h"
 
 #include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
@@ -14,41 +14,13 @@
 #include <map>
 #include <set>
 
-#include "cli/report_assets.h"
 #include "common/config_section.h"
+#include "report/report_assets.h"
 
-namespace ragdoll::cli {
+namespace ragdoll::report {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// The imitation reward terms in the environment's order (the evaluation JSON sorts its keys).
-const char* const kImitationTerms[] = {"rotation", "velocity", "end_effector", "com", "root"};
-
-std::string Trim(const std::string& s) {
-  size_t a = s.find_first_not_of(" \t\r");
-  if (a == std::string::npos) return "";
-  size_t b = s.find_last_not_of(" \t\r");
-  return s.substr(a, b - a + 1);
-}
-
-std::vector<std::string> SplitCells(const std::string& line) {
-  std::vector<std::string> cells;
-  size_t start = 0;
-  while (true) {
-    size_t comma = line.find(',', start);
-    cells.push_back(Trim(line.substr(start, comma - start)));
-    if (comma == std::string::npos) return cells;
-    start = comma + 1;
-  }
-}
-
-// A whole cell as a number; "nan" and "inf" (what iostreams write for them) included.
-bool ParseNumber(const std::string& cell, double* value) {
-  if (cell.empty()) return false;
-  char* end = nullptr;
-  *value = std::strtod(cell.c_str(), &end);
-  return end == cell.c_str() + cell.size();
-}
 
 std::string Format(const char* format, double value) {
   char text[64];
@@ -254,11 +226,9 @@ double MaxFinite(const std::vector<double>& v) {
   return m;
 }
 
-// One plot: frame, grid, ticks, titles and every run's lines, as a <g> placed at (ox, oy).
-void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const XAxisUnit& unit,
-          const Axis& x_axis, const std::vector<RunReport>& runs,
-          const std::vector<RunCurves>& curves) {
-  // The y axis: the quantity's bound, or the data's largest value.
+// The y axis: the quantity's bound, or the data's largest value.
+Axis PlotYAxis(const CurveSpec& spec, const XAxisUnit& unit, const std::vector<RunReport>& runs,
+               const std::vector<RunCurves>& curves) {
   double y_data_max = 0;
   for (size_t r = 0; r < runs.size(); ++r) {
     if (const auto* y = runs[r].metrics.Column(spec.column)) {
@@ -269,26 +239,41 @@ void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const X
       }
     }
   }
-  const Axis y_axis = std::isfinite(spec.y_max) && y_data_max <= spec.y_max
-                          ? Axis{spec.y_max, spec.y_max / 5}
-                          : RoundAxis(y_data_max);
-  auto px = [&](double x) { return kPlotLeft + x / x_axis.top * (kPlotRight - kPlotLeft); };
-  auto py = [&](double y) { return kPlotBottom - y / y_axis.top * (kPlotBottom - kPlotTop); };
+  return std::isfinite(spec.y_max) && y_data_max <= spec.y_max ? Axis{spec.y_max, spec.y_max / 5}
+                                                               : RoundAxis(y_data_max);
+}
+
+// A plot's axes and where their values land in its frame, px.
+struct PlotScale {
+  Axis x_axis, y_axis;
+  double X(double x) const { return kPlotLeft + x / x_axis.top * (kPlotRight - kPlotLeft); }
+  double Y(double y) const { return kPlotBottom - y / y_axis.top * (kPlotBottom - kPlotTop); }
+};
+
+// The plot's <g> with the data its hover readout needs, and its title.
+void PlotOpening(std::string& svg, double ox, double oy, const CurveSpec& spec,
+                 const XAxisUnit& unit, const PlotScale& scale) {
   // The hover readout gives samples in full and wall time in the axis' unit.
-  const double readout_max = unit.axis == "samples" ? x_axis.top * unit.scale : x_axis.top;
+  const double readout_max =
+      unit.axis == "samples" ? scale.x_axis.top * unit.scale : scale.x_axis.top;
 
   svg += "<g class=\"panel\" transform=\"translate(" + Format("%g", ox) + "," + Format("%g", oy) +
          ")\" data-metric=\"" + spec.column + "\" data-axis=\"" + unit.axis + "\" data-title=\"" +
          Escape(spec.title) + "\" data-x-unit=\"" + unit.unit + "\" data-x-max=\"" +
-         Format("%.10g", readout_max) + "\" data-y-max=\"" + Format("%.10g", y_axis.top) +
+         Format("%.10g", readout_max) + "\" data-y-max=\"" + Format("%.10g", scale.y_axis.top) +
          "\" data-left=\"" + Format("%g", kPlotLeft) + "\" data-right=\"" +
          Format("%g", kPlotRight) + "\" data-top=\"" + Format("%g", kPlotTop) +
          "\" data-bottom=\"" + Format("%g", kPlotBottom) + "\">\n";
   svg += "<text x=\"" + Format("%g", kPlotLeft) + "\" y=\"20\" font-size=\"13\" fill=\"#222\">" +
          Escape(spec.title) + "</text>\n";
-  // Grid and ticks.
+}
+
+// Grid and ticks.
+void PlotGrid(std::string& svg, const XAxisUnit& unit, const PlotScale& scale) {
+  const Axis& x_axis = scale.x_axis;
+  const Axis& y_axis = scale.y_axis;
   for (int i = 0; i * y_axis.step <= y_axis.top * (1 + 1e-9); ++i) {
-    const double v = i * y_axis.step, y = py(v);
+    const double v = i * y_axis.step, y = scale.Y(v);
     svg += "<line x1=\"" + Format("%g", kPlotLeft) + "\" x2=\"" + Format("%g", kPlotRight) +
            "\" y1=\"" + Format("%.1f", y) + "\" y2=\"" + Format("%.1f", y) +
            "\" stroke=\"#e4e4e4\"/>" + "<text x=\"" + Format("%g", kPlotLeft - 6) + "\" y=\"" +
@@ -296,7 +281,7 @@ void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const X
            TickLabel(v, y_axis.step) + "</text>\n";
   }
   for (int i = 0; i * x_axis.step <= x_axis.top * (1 + 1e-9); ++i) {
-    const double v = i * x_axis.step, x = px(v);
+    const double v = i * x_axis.step, x = scale.X(v);
     svg += "<line x1=\"" + Format("%.1f", x) + "\" x2=\"" + Format("%.1f", x) + "\" y1=\"" +
            Format("%g", kPlotTop) + "\" y2=\"" + Format("%g", kPlotBottom) +
            "\" stroke=\"#e4e4e4\"/>" + "<text x=\"" + Format("%.1f", x) + "\" y=\"" +
@@ -304,6 +289,10 @@ void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const X
            "\" font-size=\"11\" fill=\"#444\" text-anchor=\"middle\">" + TickLabel(v, x_axis.step) +
            (v > 0 ? unit.suffix : "") + "</text>\n";
   }
+}
+
+// The frame over the grid, and the axis titles.
+void PlotFrame(std::string& svg, const CurveSpec& spec, const XAxisUnit& unit) {
   svg += "<rect class=\"frame\" x=\"" + Format("%g", kPlotLeft) + "\" y=\"" +
          Format("%g", kPlotTop) + "\" width=\"" + Format("%g", kPlotRight - kPlotLeft) +
          "\" height=\"" + Format("%g", kPlotBottom - kPlotTop) +
@@ -315,8 +304,38 @@ void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const X
   svg += "<text x=\"18\" y=\"" + Format("%g", mid) +
          "\" font-size=\"12\" fill=\"#333\" text-anchor=\"middle\" transform=\"rotate(-90 18 " +
          Format("%g", mid) + ")\">" + spec.y_label + "</text>\n";
+}
 
-  // The runs, in order: a later run is drawn over an earlier one.
+// One run's line: a polyline per segment, with a marker per point when there are few.
+void PlotRunLine(std::string& svg,
+                 const std::vector<std::vector<std::pair<double, double>>>& segments,
+                 const std::string& attributes, const std::string& colour, const XAxisUnit& unit,
+                 const PlotScale& scale) {
+  size_t points = 0;
+  for (const auto& s : segments) points += s.size();
+  for (const auto& segment : segments) {
+    std::string coordinates;
+    for (const auto& p : segment) {
+      if (!coordinates.empty()) coordinates += ' ';
+      coordinates +=
+          Format("%.1f", scale.X(p.first / unit.scale)) + "," + Format("%.1f", scale.Y(p.second));
+    }
+    svg += "<polyline" + attributes + " fill=\"none\" stroke=\"" + colour +
+           "\" stroke-width=\"1.8\" stroke-linejoin=\"round\" points=\"" + coordinates + "\"/>\n";
+    if (points <= kMarkersUpTo || segment.size() == 1) {
+      for (const auto& p : segment) {
+        svg += "<circle class=\"marker\"" + attributes + " cx=\"" +
+               Format("%.1f", scale.X(p.first / unit.scale)) + "\" cy=\"" +
+               Format("%.1f", scale.Y(p.second)) + "\" r=\"2.2\" fill=\"" + colour + "\"/>\n";
+      }
+    }
+  }
+}
+
+// The runs, in order: a later run is drawn over an earlier one. Returns why runs drew nothing.
+std::vector<std::string> PlotRuns(std::string& svg, const CurveSpec& spec, const XAxisUnit& unit,
+                                  const PlotScale& scale, const std::vector<RunReport>& runs,
+                                  const std::vector<RunCurves>& curves) {
   std::vector<std::string> missing;
   for (size_t r = 0; r < runs.size(); ++r) {
     const auto* y = runs[r].metrics.Column(spec.column);
@@ -327,29 +346,22 @@ void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const X
       missing.push_back(runs[r].id + (y ? ": no finished episodes yet" : ": not in metrics.csv"));
       continue;
     }
-    size_t points = 0;
-    for (const auto& s : segments) points += s.size();
     const std::string attributes = " data-run=\"" + std::to_string(r) + "\" data-metric=\"" +
                                    spec.column + "\" data-axis=\"" + unit.axis + "\"";
-    const std::string& colour = RunColour(r);
-    for (const auto& segment : segments) {
-      std::string coordinates;
-      for (const auto& p : segment) {
-        if (!coordinates.empty()) coordinates += ' ';
-        coordinates +=
-            Format("%.1f", px(p.first / unit.scale)) + "," + Format("%.1f", py(p.second));
-      }
-      svg += "<polyline" + attributes + " fill=\"none\" stroke=\"" + colour +
-             "\" stroke-width=\"1.8\" stroke-linejoin=\"round\" points=\"" + coordinates + "\"/>\n";
-      if (points <= kMarkersUpTo || segment.size() == 1) {
-        for (const auto& p : segment) {
-          svg += "<circle class=\"marker\"" + attributes + " cx=\"" +
-                 Format("%.1f", px(p.first / unit.scale)) + "\" cy=\"" +
-                 Format("%.1f", py(p.second)) + "\" r=\"2.2\" fill=\"" + colour + "\"/>\n";
-        }
-      }
-    }
+    PlotRunLine(svg, segments, attributes, RunColour(r), unit, scale);
   }
+  return missing;
+}
+
+// One plot: frame, grid, ticks, titles and every run's lines, as a <g> placed at (ox, oy).
+void Plot(std::string& svg, double ox, double oy, const CurveSpec& spec, const XAxisUnit& unit,
+          const Axis& x_axis, const std::vector<RunReport>& runs,
+          const std::vector<RunCurves>& curves) {
+  const PlotScale scale{x_axis, PlotYAxis(spec, unit, runs, curves)};
+  PlotOpening(svg, ox, oy, spec, unit, scale);
+  PlotGrid(svg, unit, scale);
+  PlotFrame(svg, spec, unit);
+  const std::vector<std::string> missing = PlotRuns(svg, spec, unit, scale, runs, curves);
   for (size_t i = 0; i < missing.size(); ++i) {
     svg += "<text x=\"" + Format("%g", kPlotRight - 6) + "\" y=\"" +
            Format("%g", kPlotTop + 14 + 13 * static_cast<double>(i)) +
@@ -379,7 +391,7 @@ void Flatten(const YAML::Node& node, const std::string& prefix,
 }
 
 // The newest row with finished episodes, or -1.
-long LastEpisodeRow(const MetricsTable& m) {
+long LastEpisodeRow(const learner::MetricsTable& m) {
   const auto* norm = m.Column("normalized_return");
   const auto* episodes = m.Column("episodes");
   if (!norm) return -1;
@@ -389,157 +401,12 @@ long LastEpisodeRow(const MetricsTable& m) {
   return -1;
 }
 
-double LastValue(const MetricsTable& m, const std::string& column) {
+double LastValue(const learner::MetricsTable& m, const std::string& column) {
   const auto* c = m.Column(column);
   return c && m.rows > 0 ? c->back() : kNaN;
 }
 
 }  // namespace
-
-const std::vector<double>* MetricsTable::Column(const std::string& name) const {
-  auto it = std::find(columns.begin(), columns.end(), name);
-  return it == columns.end() ? nullptr : &values[it - columns.begin()];
-}
-
-MetricsTable ParseMetricsCsv(const std::string& text, const std::string& origin) {
-  auto fail = [&](size_t line, const std::string& message) {
-    throw ConfigError(origin + ":" + std::to_string(line) + ": " + message);
-  };
-  std::vector<std::string> lines;
-  bool last_terminated = true;
-  for (size_t start = 0; start < text.size();) {
-    size_t newline = text.find('\n', start);
-    if (newline == std::string::npos) {
-      lines.push_back(text.substr(start));
-      last_terminated = false;
-      break;
-    }
-    lines.push_back(text.substr(start, newline - start));
-    start = newline + 1;
-  }
-  if (lines.empty() || Trim(lines[0]).empty()) {
-    fail(1, "no header: the first line must name the columns (iteration,version,samples,...)");
-  }
-
-  MetricsTable m;
-  m.columns = SplitCells(lines[0]);
-  for (size_t c = 0; c < m.columns.size(); ++c) {
-    double number;
-    if (m.columns[c].empty() || ParseNumber(m.columns[c], &number)) {
-      fail(1,
-           "no header: the first line must name the columns (iteration,version,samples,...), "
-           "found '" +
-               m.columns[c] + "' in column " + std::to_string(c + 1));
-    }
-    if (std::find(m.columns.begin(), m.columns.begin() + c, m.columns[c]) !=
-        m.columns.begin() + c) {
-      fail(1, "column '" + m.columns[c] + "' appears twice in the header");
-    }
-  }
-  m.values.resize(m.columns.size());
-
-  for (size_t i = 1; i < lines.size(); ++i) {
-    const size_t line = i + 1;
-    if (Trim(lines[i]).empty()) continue;
-    // The learner appends a row at a time; a reader can catch the last one half written.
-    const bool partial_allowed = i + 1 == lines.size() && !last_terminated;
-    std::vector<std::string> cells = SplitCells(lines[i]);
-    std::vector<double> row(cells.size());
-    std::string problem;
-    if (cells.size() != m.columns.size()) {
-      problem = std::to_string(cells.size()) + " cells, but the header names " +
-                std::to_string(m.columns.size()) + " columns";
-    } else {
-      for (size_t c = 0; c < cells.size() && problem.empty(); ++c) {
-        if (!ParseNumber(cells[c], &row[c])) {
-          problem = "column " + std::to_string(c + 1) + " (" + m.columns[c] + "): '" + cells[c] +
-                    "' is not a number";
-        }
-      }
-    }
-    if (!problem.empty()) {
-      if (partial_allowed && cells.size() <= m.columns.size()) {
-        m.note = origin + ":" + std::to_string(line) +
-                 ": last line incomplete (being written?), left out";
-        break;
-      }
-      fail(line, problem);
-    }
-    for (size_t c = 0; c < cells.size(); ++c) m.values[c].push_back(row[c]);
-    ++m.rows;
-  }
-
-  for (const char* required : {"samples", "elapsed_s"}) {
-    if (!m.Column(required)) {
-      throw ConfigError(origin + ": no '" + required +
-                        "' column (the curves are drawn against samples and elapsed_s)");
-    }
-  }
-  return m;
-}
-
-EvaluationSummary ParseEvaluationJson(const std::string& text, const std::string& origin) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    throw ConfigError(origin + ": not JSON (" + e.what() + ")");
-  }
-  EvaluationSummary s;
-  try {
-    s.episodes = j.at("episodes").get<int>();
-    s.mean_return = j.at("mean_return").get<double>();
-    s.normalized_return = j.at("normalized_return").get<double>();
-    s.episode_length = j.at("episode_length").get<double>();
-    s.fall_rate = j.at("fall_rate").get<double>();
-    // The imitation terms first, in the environment's order; a task's after them.
-    std::vector<std::pair<std::string, double>> imitation, others;
-    for (const auto& [name, value] : j.at("reward_terms").items()) {
-      const auto known = std::find(std::begin(kImitationTerms), std::end(kImitationTerms), name);
-      (known != std::end(kImitationTerms) ? imitation : others)
-          .emplace_back(name, value.get<double>());
-    }
-    std::sort(imitation.begin(), imitation.end(), [](const auto& a, const auto& b) {
-      return std::find(std::begin(kImitationTerms), std::end(kImitationTerms), a.first) <
-             std::find(std::begin(kImitationTerms), std::end(kImitationTerms), b.first);
-    });
-    s.reward_terms = std::move(imitation);
-    s.reward_terms.insert(s.reward_terms.end(), others.begin(), others.end());
-    s.policy_version = j.value("policy_version", int64_t{-1});
-    s.samples = j.value("samples", int64_t{-1});
-    s.checkpoint = j.value("checkpoint", std::string());
-    if (j.contains("perturbation")) {
-      s.pushes = true;
-      const nlohmann::json& perturbation = j.at("perturbation");
-      s.survived_90 = perturbation.value("survived_90", -1.0);
-      if (perturbation.contains("protocol")) {
-        for (const auto& d : perturbation.at("protocol").at("directions")) {
-          s.push_directions.push_back(
-              {d.at("direction").get<std::string>(), d.at("survived_90").get<double>(),
-               d.at("velocity_change").get<double>(), d.value("at_limit", false)});
-        }
-      }
-    }
-    if (j.contains("recovery")) {
-      const nlohmann::json& r = j.at("recovery");
-      s.recovery_trials = r.at("trials").get<int>();
-      s.recovery_hold = r.value("hold", 0.5);
-      s.within_5 = r.at("within_5").get<double>();
-      s.within_10 = r.at("within_10").get<double>();
-      s.recovery_median = r.at("median_seconds").get<double>();
-    }
-    if (j.contains("commands") && j.at("commands").contains("knockdowns")) {
-      const nlohmann::json& k = j.at("commands").at("knockdowns");
-      s.knockdowns = k.at("count").get<int>();
-      s.back_window = k.at("back_window").get<double>();
-      s.back_within = k.at("share_back_within").get<double>();
-      s.back_median = k.at("median_seconds").is_null() ? -1 : k.at("median_seconds").get<double>();
-    }
-  } catch (const nlohmann::json::exception& e) {
-    throw ConfigError(origin + ": not an evaluation written by `ragdoll eval` (" + e.what() + ")");
-  }
-  return s;
-}
 
 std::string ClipOfConfig(const std::string& config_yaml) {
   try {
@@ -696,7 +563,7 @@ std::string RunsTable(const std::vector<RunReport>& runs) {
   std::vector<std::string> notes;
   for (size_t r = 0; r < runs.size(); ++r) {
     const RunReport& run = runs[r];
-    const MetricsTable& m = run.metrics;
+    const learner::MetricsTable& m = run.metrics;
     const std::string clip = ClipOfConfig(run.config_text);
     const double samples = LastValue(m, "samples");
     std::vector<double> wall;
@@ -745,6 +612,149 @@ std::vector<std::string> NamesOfRuns(const std::vector<RunReport>& runs,
   return all;
 }
 
+// A table row: the quantity's name, then its value for each evaluated run.
+struct EvaluationRow {
+  std::string& h;
+  const std::vector<RunReport>& runs;
+  const std::vector<size_t>& evaluated;
+
+  template <typename Value>
+  void operator()(const std::string& name, Value value) const {
+    h += "<tr><td>" + name + "</td>";
+    for (size_t r : evaluated) h += "<td class=\"num\">" + value(*runs[r].evaluation) + "</td>";
+    h += "</tr>\n";
+  }
+};
+
+// The episodes' figures: return, falls, length, and each reward term.
+void EpisodeRows(const EvaluationRow& row) {
+  using E = const eval::EvaluationSummary&;
+  row("normalised return", [](E e) { return Format("%.3f", e.normalized_return); });
+  row("fall rate", [](E e) { return Format("%.2f", e.fall_rate); });
+  row("episode length (steps)", [](E e) { return Format("%.1f", e.episode_length); });
+  row("episodes", [](E e) { return std::to_string(e.episodes); });
+  row("mean return", [](E e) { return Format("%.2f", e.mean_return); });
+  const auto terms = NamesOfRuns(row.runs, row.evaluated, [](E e) {
+    std::vector<std::string> names;
+    for (const auto& term : e.reward_terms) names.push_back(term.first);
+    return names;
+  });
+  for (const std::string& term : terms) {
+    row(Escape(term) + " term", [&term](E e) {
+      for (const auto& [name, value] : e.reward_terms) {
+        if (name == term) return Format("%.3f", value);
+      }
+      return std::string("—");
+    });
+  }
+}
+
+// The pushes survived, when some run was pushed, and per direction of DeepMimic's protocol.
+void PushRows(const EvaluationRow& row) {
+  using E = const eval::EvaluationSummary&;
+  const auto& runs = row.runs;
+  const auto& evaluated = row.evaluated;
+  if (std::any_of(evaluated.begin(), evaluated.end(),
+                  [&](size_t r) { return runs[r].evaluation->pushes; })) {
+    row("largest push survived in 90 % (N s)", [](E e) {
+      return !e.pushes           ? std::string("—")
+             : e.survived_90 < 0 ? std::string("none")
+                                 : Format("%g", e.survived_90);
+    });
+  }
+  const auto directions = NamesOfRuns(runs, evaluated, [](E e) {  // DeepMimic's protocol
+    std::vector<std::string> names;
+    for (const auto& d : e.push_directions) names.push_back(d.direction);
+    return names;
+  });
+  for (const std::string& direction : directions) {
+    row("push survived " + Escape(direction) + ", 0.2 s (N s, m/s)", [&direction](E e) {
+      for (const auto& d : e.push_directions) {
+        if (d.direction == direction) {
+          return std::string(d.at_limit ? "&ge; " : "") + Format("%g", d.impulse) + ", " +
+                 Format("%.2f", d.velocity_change);
+        }
+      }
+      return std::string("—");
+    });
+  }
+}
+
+// Getting up from falls and back on command after knock-downs, when some run was tested.
+void RecoveryRows(const EvaluationRow& row) {
+  using E = const eval::EvaluationSummary&;
+  const auto& runs = row.runs;
+  const auto& evaluated = row.evaluated;
+  if (std::any_of(evaluated.begin(), evaluated.end(),
+                  [&](size_t r) { return runs[r].evaluation->recovery_trials > 0; })) {
+    row("standing within 5 s / 10 s of settled falls", [](E e) {
+      return e.recovery_trials == 0 ? std::string("—")
+                                    : Format("%.0f %%", 100 * e.within_5) + " / " +
+                                          Format("%.0f %%", 100 * e.within_10) + " of " +
+                                          std::to_string(e.recovery_trials) + ", held " +
+                                          Format("%g", e.recovery_hold) + " s";
+    });
+    row("median time to stand (s)", [](E e) {
+      return e.recovery_trials == 0  ? std::string("—")
+             : e.recovery_median < 0 ? std::string("never")
+                                     : Format("%.2f", e.recovery_median);
+    });
+  }
+  if (std::any_of(evaluated.begin(), evaluated.end(),
+                  [&](size_t r) { return runs[r].evaluation->knockdowns > 0; })) {
+    row("knock-downs under command: back on command within the window", [](E e) {
+      return e.knockdowns == 0
+                 ? std::string("—")
+                 : Format("%.0f %%", 100 * e.back_within) + " of " + std::to_string(e.knockdowns) +
+                       " within " + Format("%g", e.back_window) + " s, median " +
+                       (e.back_median < 0 ? std::string("never") : Format("%.2f s", e.back_median));
+    });
+  }
+}
+
+// Which checkpoint was evaluated.
+void CheckpointRows(const EvaluationRow& row) {
+  using E = const eval::EvaluationSummary&;
+  row("policy version", [](E e) {
+    return e.policy_version < 0 ? std::string("—") : "v" + std::to_string(e.policy_version);
+  });
+  row("samples of the checkpoint",
+      [](E e) { return e.samples < 0 ? std::string("—") : Count(e.samples); });
+  row("checkpoint", [](E e) {
+    return e.checkpoint.empty() ? std::string("—")
+                                : Escape(std::filesystem::path(e.checkpoint).filename().string());
+  });
+}
+
+// The table of the evaluated runs, then a note for each whose training has gone on since.
+std::string EvaluationTable(const std::vector<RunReport>& runs,
+                            const std::vector<size_t>& evaluated) {
+  std::string h;
+  h += "<p class=\"hint\">Deterministic policy (mean action), episodes from random phases "
+       "(<code>ragdoll eval</code>).</p>\n<table class=\"evaluation\">\n<tr><th></th>";
+  for (size_t r : evaluated) {
+    h += "<th><span class=\"swatch\" style=\"background:" + RunColour(r) + "\"></span> " +
+         Escape(runs[r].id) + "</th>";
+  }
+  h += "</tr>\n";
+  const EvaluationRow row{h, runs, evaluated};
+  EpisodeRows(row);
+  PushRows(row);
+  RecoveryRows(row);
+  CheckpointRows(row);
+  h += "</table>\n";
+  for (size_t r : evaluated) {
+    const double now = LastValue(runs[r].metrics, "samples");
+    const int64_t at = runs[r].evaluation->samples;
+    if (at >= 0 && std::isfinite(now) && now > static_cast<double>(at)) {
+      h += "<p class=\"note\">" + Escape(runs[r].id) + ": evaluated at " + Count(at) +
+           " samples; training has reached " + Count(static_cast<int64_t>(now)) +
+           " since (run <code>ragdoll eval " + Escape(runs[r].path) + "</code> again).</p>\n";
+    }
+  }
+  return h;
+}
+
 // The latest evaluations: quantities as rows, runs with an eval.json as columns.
 std::string EvaluationSection(const std::vector<RunReport>& runs) {
   std::string h;
@@ -753,108 +763,7 @@ std::string EvaluationSection(const std::vector<RunReport>& runs) {
   for (size_t r = 0; r < runs.size(); ++r) {
     if (runs[r].evaluation) evaluated.push_back(r);
   }
-  if (!evaluated.empty()) {
-    h += "<p class=\"hint\">Deterministic policy (mean action), episodes from random phases "
-         "(<code>ragdoll eval</code>).</p>\n<table class=\"evaluation\">\n<tr><th></th>";
-    for (size_t r : evaluated) {
-      h += "<th><span class=\"swatch\" style=\"background:" + RunColour(r) + "\"></span> " +
-           Escape(runs[r].id) + "</th>";
-    }
-    h += "</tr>\n";
-    auto row = [&](const std::string& name, auto value) {
-      h += "<tr><td>" + name + "</td>";
-      for (size_t r : evaluated) h += "<td class=\"num\">" + value(*runs[r].evaluation) + "</td>";
-      h += "</tr>\n";
-    };
-    using E = const EvaluationSummary&;
-    row("normalised return", [](E e) { return Format("%.3f", e.normalized_return); });
-    row("fall rate", [](E e) { return Format("%.2f", e.fall_rate); });
-    row("episode length (steps)", [](E e) { return Format("%.1f", e.episode_length); });
-    row("episodes", [](E e) { return std::to_string(e.episodes); });
-    row("mean return", [](E e) { return Format("%.2f", e.mean_return); });
-    const auto terms = NamesOfRuns(runs, evaluated, [](E e) {
-      std::vector<std::string> names;
-      for (const auto& term : e.reward_terms) names.push_back(term.first);
-      return names;
-    });
-    for (const std::string& term : terms) {
-      row(Escape(term) + " term", [&term](E e) {
-        for (const auto& [name, value] : e.reward_terms) {
-          if (name == term) return Format("%.3f", value);
-        }
-        return std::string("—");
-      });
-    }
-    if (std::any_of(evaluated.begin(), evaluated.end(),
-                    [&](size_t r) { return runs[r].evaluation->pushes; })) {
-      row("largest push survived in 90 % (N s)", [](E e) {
-        return !e.pushes           ? std::string("—")
-               : e.survived_90 < 0 ? std::string("none")
-                                   : Format("%g", e.survived_90);
-      });
-    }
-    const auto directions = NamesOfRuns(runs, evaluated, [](E e) {  // DeepMimic's protocol
-      std::vector<std::string> names;
-      for (const auto& d : e.push_directions) names.push_back(d.direction);
-      return names;
-    });
-    for (const std::string& direction : directions) {
-      row("push survived " + Escape(direction) + ", 0.2 s (N s, m/s)", [&direction](E e) {
-        for (const auto& d : e.push_directions) {
-          if (d.direction == direction) {
-            return std::string(d.at_limit ? "&ge; " : "") + Format("%g", d.impulse) + ", " +
-                   Format("%.2f", d.velocity_change);
-          }
-        }
-        return std::string("—");
-      });
-    }
-    if (std::any_of(evaluated.begin(), evaluated.end(),
-                    [&](size_t r) { return runs[r].evaluation->recovery_trials > 0; })) {
-      row("standing within 5 s / 10 s of settled falls", [](E e) {
-        return e.recovery_trials == 0 ? std::string("—")
-                                      : Format("%.0f %%", 100 * e.within_5) + " / " +
-                                            Format("%.0f %%", 100 * e.within_10) + " of " +
-                                            std::to_string(e.recovery_trials) + ", held " +
-                                            Format("%g", e.recovery_hold) + " s";
-      });
-      row("median time to stand (s)", [](E e) {
-        return e.recovery_trials == 0  ? std::string("—")
-               : e.recovery_median < 0 ? std::string("never")
-                                       : Format("%.2f", e.recovery_median);
-      });
-    }
-    if (std::any_of(evaluated.begin(), evaluated.end(),
-                    [&](size_t r) { return runs[r].evaluation->knockdowns > 0; })) {
-      row("knock-downs under command: back on command within the window", [](E e) {
-        return e.knockdowns == 0 ? std::string("—")
-                                 : Format("%.0f %%", 100 * e.back_within) + " of " +
-                                       std::to_string(e.knockdowns) + " within " +
-                                       Format("%g", e.back_window) + " s, median " +
-                                       (e.back_median < 0 ? std::string("never")
-                                                          : Format("%.2f s", e.back_median));
-      });
-    }
-    row("policy version", [](E e) {
-      return e.policy_version < 0 ? std::string("—") : "v" + std::to_string(e.policy_version);
-    });
-    row("samples of the checkpoint",
-        [](E e) { return e.samples < 0 ? std::string("—") : Count(e.samples); });
-    row("checkpoint", [](E e) {
-      return e.checkpoint.empty() ? std::string("—")
-                                  : Escape(std::filesystem::path(e.checkpoint).filename().string());
-    });
-    h += "</table>\n";
-    for (size_t r : evaluated) {
-      const double now = LastValue(runs[r].metrics, "samples");
-      const int64_t at = runs[r].evaluation->samples;
-      if (at >= 0 && std::isfinite(now) && now > static_cast<double>(at)) {
-        h += "<p class=\"note\">" + Escape(runs[r].id) + ": evaluated at " + Count(at) +
-             " samples; training has reached " + Count(static_cast<int64_t>(now)) +
-             " since (run <code>ragdoll eval " + Escape(runs[r].path) + "</code> again).</p>\n";
-      }
-    }
-  }
+  if (!evaluated.empty()) h += EvaluationTable(runs, evaluated);
   for (const auto& run : runs) {
     if (run.evaluation) continue;
     h += "<p class=\"note\">" + Escape(run.id) +
@@ -964,4 +873,4 @@ std::string Base64(const std::string& bytes) {
   return out;
 }
 
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::report

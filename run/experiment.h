@@ -7,13 +7,13 @@
 #include <string>
 
 #include "actor/actor_process.h"
-#include "actor/sim/env_config.h"
 #include "broker/broker.h"
 #include "common/metrics.h"
 #include "learner/learner_process.h"
 #include "learner/trainer_config.h"
+#include "sim/env_config.h"
 
-namespace ragdoll::cli {
+namespace ragdoll::run {
 
 struct Experiment {
   std::string path;  // the file
@@ -39,4 +39,4 @@ Experiment ReadExperiment(const std::string& path, int port_base = 0);
 // actors.count resolved: cores - 1, at least 1, when not set.
 int ResolveActorCount(int configured);
 
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::run

@@ -1,16 +1,17 @@
-#include "cli/trained_policy.h"
+#include "run/trained_policy.h"
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <vector>
 
-#include "actor/sim/imitation_env.h"
 #include "common/config_section.h"
+#include "common/run_config.h"
 #include "learner/checkpoint_store.h"
 #include "learner/learner.h"
+#include "sim/imitation_env.h"
 
-namespace ragdoll::cli {
+namespace ragdoll::run {
 
 TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   TrainedPolicy p;
@@ -25,9 +26,9 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
     throw ConfigError(run_or_checkpoint +
                       (damaged.empty() ? ": no checkpoint found" : ": no whole checkpoint found"));
   }
-  // Checkpoints live in <run>/checkpoints/; the run's effective config is <run>/config.yaml.
+  // Checkpoints live in <run>/checkpoints/; the run's effective config beside them.
   auto run = std::filesystem::path(p.checkpoint).parent_path().parent_path();
-  p.experiment = ReadExperiment((run / "config.yaml").string());
+  p.experiment = ReadExperiment(RunConfigPath(run.string()));
   // Evaluation, play and export run the policy unpushed; their pushes are their own.
   p.experiment.environment.perturbations = {};
   // They start standing too; a fall still becomes a get-up.
@@ -51,4 +52,4 @@ TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint) {
   return p;
 }
 
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::run

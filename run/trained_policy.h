@@ -6,14 +6,14 @@
 #include <memory>
 #include <string>
 
-#include "cli/experiment.h"
 #include "common/wire.h"
+#include "run/experiment.h"
 
 namespace ragdoll {
 class ValueNetworkImpl;  // common/policy.h: kept out of this header, which then needs no libtorch
 }
 
-namespace ragdoll::cli {
+namespace ragdoll::run {
 
 struct TrainedPolicy {
   std::string checkpoint;
@@ -30,4 +30,4 @@ struct TrainedPolicy {
 // Throws ConfigError when there is no checkpoint or it does not fit the run's config.
 TrainedPolicy LoadTrainedPolicy(const std::string& run_or_checkpoint);
 
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::run

@@ -1,11 +1,11 @@
-#include "actor/sim/env_config.h"
+#include "sim/env_config.h"
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <set>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 #include "common/config_section.h"
 
 namespace ragdoll::sim {
@@ -26,67 +26,73 @@ double NonNegative(const ConfigSection& s, const std::string& key, double fallba
 
 std::string Stem(const std::string& path) { return std::filesystem::path(path).stem().string(); }
 
-void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
-  if (!parent.Has("steering")) return;
-  ConfigSection s = parent.Section("steering");
-  std::vector<ConfigSection> items = s.SectionList("motions");
-  if (items.empty()) s.Fail("motions", "required: the clips of the motion set, at least one");
-  std::set<std::string> names;
-  for (const ConfigSection& i : items) {
-    MotionSetItem item;
-    item.motion = i.GetPath("motion", "");
-    if (item.motion.empty()) i.Fail("motion", "required: the clip file");
-    item.mirror = i.Get<bool>("mirror", false);
-    item.name = i.Get<std::string>("name", Stem(item.motion) + (item.mirror ? "_mirrored" : ""));
-    if (!names.insert(item.name).second) {
-      i.Fail("name", "'" + item.name + "' names two clips of the set; give each its own `name`");
-    }
-    if (i.Has("command")) {
-      ConfigSection command = i.Section("command");
-      item.command_from_clip = false;
-      item.command.forward = command.Get<double>("forward", 0.0);
-      item.command.left = command.Get<double>("left", 0.0);
-      item.command.turn = command.Get<double>("turn", 0.0) * M_PI / 180;  // deg/s in the file
-      for (double v : {item.command.forward, item.command.left, item.command.turn}) {
-        if (!std::isfinite(v)) i.Fail("command", "must hold finite numbers");
-      }
-      command.Finish();
-    }
-    item.from = i.Get<std::string>("from", "");
-    item.to = i.Get<std::string>("to", "");
-    if (item.from.empty() != item.to.empty()) {
-      i.Fail(item.from.empty() ? "from" : "to",
-             "a transition needs both `from` and `to` (the clips it leads between)");
-    }
-    if (item.transition() && !item.command_from_clip) {
-      i.Fail("command", "a transition's command is its `to` clip's");
-    }
-    if (i.Has("weight")) {
-      if (item.transition()) i.Fail("weight", "a transition is never drawn as a command");
-      item.weight = i.Get<double>("weight", 1.0);
-      if (!std::isfinite(item.weight) || item.weight <= 0) {
-        i.Fail("weight", "must be a positive number, got " + std::to_string(item.weight));
-      }
-    }
-    i.Finish();
-    c->motions.push_back(std::move(item));
+// An entry's own command, given in the file instead of measured from its clip.
+void ReadItemCommand(const ConfigSection& i, MotionSetItem* item) {
+  ConfigSection command = i.Section("command");
+  item->command_from_clip = false;
+  item->command.forward = command.Get<double>("forward", 0.0);
+  item->command.left = command.Get<double>("left", 0.0);
+  item->command.turn = command.Get<double>("turn", 0.0) * M_PI / 180;  // deg/s in the file
+  for (double v : {item->command.forward, item->command.left, item->command.turn}) {
+    if (!std::isfinite(v)) i.Fail("command", "must hold finite numbers");
   }
+  command.Finish();
+}
+
+// One entry of steering.motions; `names` holds the names of the entries before it.
+MotionSetItem ReadMotionSetItem(const ConfigSection& i, std::set<std::string>* names) {
+  MotionSetItem item;
+  item.motion = i.GetPath("motion", "");
+  if (item.motion.empty()) i.Fail("motion", "required: the clip file");
+  item.mirror = i.Get<bool>("mirror", false);
+  item.name = i.Get<std::string>("name", Stem(item.motion) + (item.mirror ? "_mirrored" : ""));
+  if (!names->insert(item.name).second) {
+    i.Fail("name", "'" + item.name + "' names two clips of the set; give each its own `name`");
+  }
+  if (i.Has("command")) ReadItemCommand(i, &item);
+  item.from = i.Get<std::string>("from", "");
+  item.to = i.Get<std::string>("to", "");
+  if (item.from.empty() != item.to.empty()) {
+    i.Fail(item.from.empty() ? "from" : "to",
+           "a transition needs both `from` and `to` (the clips it leads between)");
+  }
+  if (item.transition() && !item.command_from_clip) {
+    i.Fail("command", "a transition's command is its `to` clip's");
+  }
+  if (i.Has("weight")) {
+    if (item.transition()) i.Fail("weight", "a transition is never drawn as a command");
+    item.weight = i.Get<double>("weight", 1.0);
+    if (!std::isfinite(item.weight) || item.weight <= 0) {
+      i.Fail("weight", "must be a positive number, got " + std::to_string(item.weight));
+    }
+  }
+  i.Finish();
+  return item;
+}
+
+// Every transition leads between two clips of the set that are not transitions, and at least
+// one clip is a command.
+void CheckMotionSet(const ConfigSection& s, const std::vector<MotionSetItem>& motions) {
   int commands = 0;
-  for (const MotionSetItem& item : c->motions) {
+  for (const MotionSetItem& item : motions) {
     if (!item.transition()) {
       ++commands;
       continue;
     }
     for (const std::string* end : {&item.from, &item.to}) {
-      auto it = std::find_if(c->motions.begin(), c->motions.end(),
+      auto it = std::find_if(motions.begin(), motions.end(),
                              [&](const MotionSetItem& m) { return m.name == *end; });
-      if (it == c->motions.end() || it->transition()) {
+      if (it == motions.end() || it->transition()) {
         s.Fail("motions", "transition '" + item.name + "' names '" + *end +
                               "', which is not a (non-transition) clip of the set");
       }
     }
   }
   if (commands == 0) s.Fail("motions", "needs at least one clip that is not a transition");
+}
+
+// The steering task's own settings: command_interval, task and catch_steps.
+void ReadSteeringTask(const ConfigSection& s, SteeringConfig* c) {
   ConfigSection interval = s.Section("command_interval");
   c->command_interval_min = Positive(interval, "min", c->command_interval_min);
   c->command_interval_max = Positive(interval, "max", c->command_interval_max);
@@ -107,6 +113,17 @@ void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
     c->catch_seconds = Positive(steps, "seconds", 0.7);
     steps.Finish();
   }
+}
+
+void ReadSteering(const ConfigSection& parent, SteeringConfig* c) {
+  if (!parent.Has("steering")) return;
+  ConfigSection s = parent.Section("steering");
+  std::vector<ConfigSection> items = s.SectionList("motions");
+  if (items.empty()) s.Fail("motions", "required: the clips of the motion set, at least one");
+  std::set<std::string> names;
+  for (const ConfigSection& i : items) c->motions.push_back(ReadMotionSetItem(i, &names));
+  CheckMotionSet(s, c->motions);
+  ReadSteeringTask(s, c);
   s.Finish();
 }
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/imitation_reward.h"
+#include "sim/imitation_reward.h"
 
 namespace ragdoll {
 class ConfigSection;

@@ -1,9 +1,9 @@
-#include "actor/sim/falls.h"
+#include "sim/falls.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
 namespace ragdoll::sim {
 
@@ -23,7 +23,7 @@ const char* PostureName(Posture posture) {
   return "other";
 }
 
-Posture PostureOf(const Character& character, const mjData& d, double stand_height) {
+Posture PostureOf(const character::Character& character, const mjData& d, double stand_height) {
   const int root = character.root_body();
   const double* r = d.xmat + 9 * root;
   const double up_z = r[8];     // the trunk's own up (+z) axis, its world z
@@ -37,23 +37,27 @@ Posture PostureOf(const Character& character, const mjData& d, double stand_heig
   return Posture::kSide;
 }
 
-double StandHeight(const MotionClip& clip) { return 0.8 * clip.Sample(0).root_position[2]; }
+double StandHeight(const character::MotionClip& clip) {
+  return 0.8 * clip.Sample(0).root_position[2];
+}
 
-FallenState SettledFall(const Character& character, const MotionClip& clip, std::mt19937_64& rng) {
+FallenState SettledFall(const character::Character& character, const character::MotionClip& clip,
+                        std::mt19937_64& rng) {
   const mjModel* m = character.model();
   std::uniform_real_distribution<double> unit(0, 1);
-  Pose pose = clip.Sample(unit(rng) * clip.duration());
+  character::Pose pose = clip.Sample(unit(rng) * clip.duration());
   // Face down: the front turned to the floor about the lateral (+y) axis; face up the other way;
   // the sides about the front (+x) axis.
   const int lay = std::uniform_int_distribution<int>(0, 3)(rng);
-  const Vec3 axis = lay < 2 ? Vec3{0, 1, 0} : Vec3{1, 0, 0};
+  const character::Vec3 axis = lay < 2 ? character::Vec3{0, 1, 0} : character::Vec3{1, 0, 0};
   const double jitter = (2 * unit(rng) - 1) * 20 * M_PI / 180;
   const double angle = (lay % 2 == 0 ? 1 : -1) * M_PI / 2 + jitter;
-  pose.root_rotation = Multiply(AxisAngle({0, 0, 1}, 2 * M_PI * unit(rng)), AxisAngle(axis, angle));
+  pose.root_rotation = character::Multiply(character::AxisAngle({0, 0, 1}, 2 * M_PI * unit(rng)),
+                                           character::AxisAngle(axis, angle));
   pose.root_position = {0, 0, 0};
   pose.root_position[2] = 0.25 - character.LowestPoint(pose);
 
-  DataPtr data = character.MakeData();
+  character::DataPtr data = character.MakeData();
   mjData* d = data.get();
   character.PoseToQpos(pose, d->qpos);
   mj_forward(m, d);
@@ -61,7 +65,8 @@ FallenState SettledFall(const Character& character, const MotionClip& clip, std:
   const int max_steps = static_cast<int>(std::lround(4.0 / m->opt.timestep));
   int still = 0, step = 0;
   for (; step < max_steps && still < still_steps; ++step) {
-    for (const ActuatedHinge& h : character.hinges()) d->ctrl[h.actuator] = d->qpos[h.qpos_address];
+    for (const character::ActuatedHinge& h : character.hinges())
+      d->ctrl[h.actuator] = d->qpos[h.qpos_address];
     mj_step(m, d);
     double fastest = 0;
     for (int i = 0; i < m->nv; ++i) fastest = std::max(fastest, std::abs(d->qvel[i]));

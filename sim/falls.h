@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
 
 namespace ragdoll::sim {
 
@@ -18,9 +18,9 @@ const char* PostureName(Posture posture);
 // How a character lies or stands, from its root's orientation and height: standing when the trunk
 // is within 30 degrees of upright and the root above `stand_height` (metres); lying when the
 // trunk is within 45 degrees of horizontal, face down or up by where its front points.
-Posture PostureOf(const Character& character, const mjData& d, double stand_height);
+Posture PostureOf(const character::Character& character, const mjData& d, double stand_height);
 // The stand height recovery is judged by: 0.8 of the root's height in the clip's first frame.
-double StandHeight(const MotionClip& clip);
+double StandHeight(const character::MotionClip& clip);
 
 struct FallenState {
   std::vector<double> qpos, qvel;
@@ -33,6 +33,7 @@ struct FallenState {
 // the floor and simulated limp (every actuator's target follows its joint, so the joints are only
 // damped) until no joint moves faster than 0.3 rad/s for 0.2 s (contacts keep some twitching), or
 // for at most 4 s.
-FallenState SettledFall(const Character& character, const MotionClip& clip, std::mt19937_64& rng);
+FallenState SettledFall(const character::Character& character, const character::MotionClip& clip,
+                        std::mt19937_64& rng);
 
 }  // namespace ragdoll::sim

@@ -1,4 +1,4 @@
-#include "actor/sim/imitation_env.h"
+#include "sim/imitation_env.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,17 +6,15 @@
 #include <limits>
 #include <stdexcept>
 
-#include "actor/sim/ground_contacts.h"
-#include "actor/sim/observation.h"
-#include "actor/sim/recovery_task.h"
-#include "actor/sim/steering_task.h"
+#include "character/ground_contacts.h"
 #include "common/config_section.h"
+#include "sim/observation.h"
+#include "sim/recovery_task.h"
+#include "sim/steering_task.h"
 
 namespace ragdoll::sim {
 namespace {
 
-// The imitation reward terms, as episode figures, in RewardTerms' order.
-const char* const kImitationTerms[] = {"rotation", "velocity", "end_effector", "com", "root"};
 constexpr int kImitationTermCount = static_cast<int>(std::size(kImitationTerms));
 
 // A pelvis this much higher or lower than a get-up key frame's counts as much as its trunk
@@ -38,8 +36,8 @@ double Yaw(const double* q) {
   return std::atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
 }
 
-Vec3 CentreOfMassOf(const Character& c, const mjData& d) {
-  Vec3 com = {0, 0, 0};
+character::Vec3 CentreOfMassOf(const character::Character& c, const mjData& d) {
+  character::Vec3 com = {0, 0, 0};
   for (int b : c.bodies()) {
     for (int k = 0; k < 3; ++k) com[k] += c.model()->body_mass[b] * d.xipos[3 * b + k];
   }
@@ -47,7 +45,18 @@ Vec3 CentreOfMassOf(const Character& c, const mjData& d) {
   return com;
 }
 
-EnvSpec SpecWithTask(const EnvConfig& config, const Character& character, const Task& task) {
+void RunSubsteps(const mjModel* m, mjData* d, int substeps) {
+  // mj_step = mj_step1 (positions, velocities, contacts) + mj_step2 (forces, integration).
+  // Running step1 after each integration instead of before keeps every derived quantity in
+  // `d` current for the observation and reward at no extra cost (Euler integrator).
+  for (int s = 0; s < substeps; ++s) {
+    mj_step2(m, d);
+    mj_step1(m, d);
+  }
+}
+
+EnvSpec SpecWithTask(const EnvConfig& config, const character::Character& character,
+                     const Task& task) {
   EnvSpec spec;
   spec.observation_size = ObservationSize(character) + task.observation_size();
   spec.observation_names = ObservationNames(character);
@@ -85,10 +94,10 @@ std::unique_ptr<Task> MakeTask(const EnvConfig& config) {
 }
 
 EnvSpec MakeEnvSpec(const EnvConfig& config) {
-  return MakeEnvSpec(config, *Character::Load(config.character, config.physics_dt()));
+  return MakeEnvSpec(config, *character::Character::Load(config.character, config.physics_dt()));
 }
 
-EnvSpec MakeEnvSpec(const EnvConfig& config, const Character& character) {
+EnvSpec MakeEnvSpec(const EnvConfig& config, const character::Character& character) {
   return SpecWithTask(config, character, *MakeTask(config));
 }
 
@@ -110,9 +119,9 @@ const char* EpisodeEndName(EpisodeEnd end) {
   return "?";
 }
 
-ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
-                           std::shared_ptr<const MotionClip> clip, const EnvConfig& config,
-                           uint64_t seed)
+ImitationEnv::ImitationEnv(std::shared_ptr<const character::Character> character,
+                           std::shared_ptr<const character::MotionClip> clip,
+                           const EnvConfig& config, uint64_t seed)
     : ImitationEnv(std::move(character),
                    std::make_shared<const MotionSet>(
                        std::vector<MotionSetEntry>{{clip->name(), clip, MeasureCommand(*clip)}}),
@@ -122,7 +131,7 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
   }
 }
 
-ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
+ImitationEnv::ImitationEnv(std::shared_ptr<const character::Character> character,
                            std::shared_ptr<const MotionSet> motions, const EnvConfig& config,
                            uint64_t seed, std::unique_ptr<Task> task)
     : character_(std::move(character)),
@@ -143,8 +152,9 @@ ImitationEnv::ImitationEnv(std::shared_ptr<const Character> character,
   clip_ = motions_->entry(reference_entry_).clip.get();
   const auto& joints = character_->joints();
   for (const auto& [name, w] : config_.joint_weights) {
-    bool found = std::any_of(joints.begin(), joints.end(),
-                             [&name = name](const CharacterJoint& j) { return j.name == name; });
+    bool found =
+        std::any_of(joints.begin(), joints.end(),
+                    [&name = name](const character::CharacterJoint& j) { return j.name == name; });
     if (!found) throw ConfigError("joint_weights: the character has no joint '" + name + "'");
   }
   for (const auto& j : joints) {
@@ -183,8 +193,9 @@ void ImitationEnv::ReferenceState(double time, double* qpos, double* qvel) const
   const double x = qpos[0], y = qpos[1];
   qpos[0] = c * x - s * y + reference_offset_[0];
   qpos[1] = s * x + c * y + reference_offset_[1];
-  const Quat turned =
-      Multiply(AxisAngle({0, 0, 1}, reference_yaw_), Quat{qpos[3], qpos[4], qpos[5], qpos[6]});
+  const character::Quat turned =
+      character::Multiply(character::AxisAngle({0, 0, 1}, reference_yaw_),
+                          character::Quat{qpos[3], qpos[4], qpos[5], qpos[6]});
   std::copy(turned.begin(), turned.end(), qpos + 3);
   // The free joint's linear velocity is in world axes (turned with the path); its angular
   // velocity is in the root's own axes, which turn with the root.
@@ -199,11 +210,12 @@ void ImitationEnv::SyncReference(double time) {
   if (motions_->entry(reference_entry_).get_up) {
     // A get-up clip turns to the character however the config syncs: lying, by the body's yaw.
     ReferenceState(time, qpos.data(), qvel_scratch_.data());
-    reference_yaw_ += WrapAngle(BodyYawOf({root[3], root[4], root[5], root[6]}) -
-                                BodyYawOf({qpos[3], qpos[4], qpos[5], qpos[6]}));
+    reference_yaw_ +=
+        character::WrapAngle(character::BodyYawOf({root[3], root[4], root[5], root[6]}) -
+                             character::BodyYawOf({qpos[3], qpos[4], qpos[5], qpos[6]}));
   } else if (const std::optional<double> heading = task_->reference_heading()) {
     ReferenceState(time, qpos.data(), qvel_scratch_.data());
-    reference_yaw_ += WrapAngle(*heading - Yaw(qpos.data() + 3));
+    reference_yaw_ += character::WrapAngle(*heading - Yaw(qpos.data() + 3));
   } else if (config_.reference_sync == ReferenceSync::kPositionAndHeading) {
     ReferenceState(time, qpos.data(), qvel_scratch_.data());
     reference_yaw_ += Yaw(root + 3) - Yaw(qpos.data() + 3);
@@ -218,7 +230,7 @@ void ImitationEnv::SyncReference(double time) {
 void ImitationEnv::ClipState(double time, double* qpos, double* qvel) const {
   clip_->SampleInto(time, &pose_scratch_);
   character_->PoseToQpos(pose_scratch_, qpos);
-  Vec3 linear, angular;
+  character::Vec3 linear, angular;
   clip_->SampleRootVelocity(time, &linear, &angular);
   for (int k = 0; k < 3; ++k) {
     qvel[k] = linear[k];
@@ -278,10 +290,10 @@ void ImitationEnv::WriteObservation(float* observation) const {
 
 double ImitationEnv::heading() const { return Yaw(data_->qpos + 3); }
 
-Vec3 ImitationEnv::CentreOfMass() const { return CentreOfMassOf(*character_, *data_); }
+character::Vec3 ImitationEnv::CentreOfMass() const { return CentreOfMassOf(*character_, *data_); }
 
 void ImitationEnv::SwitchReference(int entry) {
-  const MotionClip& clip = *motions_->entry(entry).clip;
+  const character::MotionClip& clip = *motions_->entry(entry).clip;
   // The key frame whose pose is closest to the character's (weighted joint rotation error, as
   // the reward's rotation term); a transition is entered in its first half only, a get-up before
   // its last tenth and by the trunk's posture too (a body lying with straight legs is nearest
@@ -289,29 +301,31 @@ void ImitationEnv::SwitchReference(int entry) {
   const int n = clip.num_frames();
   const bool get_up = motions_->entry(entry).get_up;
   const int last = clip.loop() ? n - 1 : get_up ? std::max(1, n * 9 / 10) : std::max(1, n / 2);
-  const Quat root_rotation = {data_->qpos[3], data_->qpos[4], data_->qpos[5], data_->qpos[6]};
-  const Vec3 up = Rotate(root_rotation, {0, 0, 1}), front = Rotate(root_rotation, {1, 0, 0});
+  const character::Quat root_rotation = {data_->qpos[3], data_->qpos[4], data_->qpos[5],
+                                         data_->qpos[6]};
+  const character::Vec3 up = character::Rotate(root_rotation, {0, 0, 1}),
+                        front = character::Rotate(root_rotation, {1, 0, 0});
   double weight_sum = 0;
   for (double w : joint_weights_) weight_sum += w;
   int best = 0;
   double best_error = std::numeric_limits<double>::infinity();
   const auto& joints = character_->joints();
-  std::vector<Quat> current(joints.size());
+  std::vector<character::Quat> current(joints.size());
   for (size_t j = 0; j < joints.size(); ++j) {
     current[j] = character_->JointRotation(data_->qpos, static_cast<int>(j));
   }
   for (int f = 0; f < last; ++f) {
-    const Pose& pose = clip.frame(f);
+    const character::Pose& pose = clip.frame(f);
     double error = 0;
     for (size_t j = 0; j < joints.size(); ++j) {
       if (joint_weights_[j] == 0) continue;
-      double a = AngleBetween(current[j], pose.joint_rotations[j]);
+      double a = character::AngleBetween(current[j], pose.joint_rotations[j]);
       error += joint_weights_[j] / weight_sum * a * a;
     }
     if (get_up) {
       // How far up the trunk's up and front axes point, and how high the pelvis is, compared.
-      const Vec3 frame_up = Rotate(pose.root_rotation, {0, 0, 1});
-      const Vec3 frame_front = Rotate(pose.root_rotation, {1, 0, 0});
+      const character::Vec3 frame_up = character::Rotate(pose.root_rotation, {0, 0, 1});
+      const character::Vec3 frame_front = character::Rotate(pose.root_rotation, {1, 0, 0});
       const double height = (data_->qpos[2] - pose.root_position[2]) / kGetUpHeightScale;
       error += std::pow(up[2] - frame_up[2], 2) + std::pow(front[2] - frame_front[2], 2) +
                height * height;
@@ -338,14 +352,14 @@ void ImitationEnv::ReferenceAction(float* action) const {
     if (config_.action_mode == ActionMode::kOffset) {
       action[i] = 0;
     } else {
-      const ActuatedHinge& h = hinges[i];
+      const character::ActuatedHinge& h = hinges[i];
       action[i] =
           static_cast<float>(2 * (qpos[h.qpos_address] - h.lower) / (h.upper - h.lower) - 1);
     }
   }
 }
 
-void ImitationEnv::SetExternalForce(int body, const Vec3& force) {
+void ImitationEnv::SetExternalForce(int body, const character::Vec3& force) {
   double* f = data_->xfrc_applied + 6 * body;
   for (int i = 0; i < 3; ++i) {
     f[i] = force[i];
@@ -361,7 +375,7 @@ void ImitationEnv::SetState(const double* qpos, const double* qvel) {
 }
 
 void ImitationEnv::Features(const mjData& d, PoseFeatures* f) const {
-  const Character& c = *character_;
+  const character::Character& c = *character_;
   const auto& joints = c.joints();
   f->joint_rotations.resize(joints.size());
   for (size_t j = 0; j < joints.size(); ++j) {
@@ -419,7 +433,7 @@ EpisodeEnd ImitationEnv::CheckTermination() const {
     return task_->failed() ? EpisodeEnd::kFell : EpisodeEnd::kRunning;
   const mjModel* m = character_->model();
   const mjData* d = data_.get();
-  if (TouchesGroundOutside(m, *d, may_touch_ground_)) return EpisodeEnd::kFell;
+  if (character::TouchesGroundOutside(m, *d, may_touch_ground_)) return EpisodeEnd::kFell;
   double distance2 = 0;
   for (int k = 0; k < 3; ++k) {
     double e = d->qpos[k] - ref_data_->qpos[k];
@@ -431,17 +445,12 @@ EpisodeEnd ImitationEnv::CheckTermination() const {
   return EpisodeEnd::kRunning;
 }
 
-StepResult ImitationEnv::Step(const float* action, float* observation) {
-  const mjModel* m = character_->model();
+void ImitationEnv::SetJointTargets(const float* action) {
   mjData* d = data_.get();
   mjData* ref = ref_data_.get();
-  const double next_time = time_ + config_.control_dt();
-  ReferenceState(next_time, ref->qpos, ref->qvel);
-  const int falls_before = task_->falls();
-
   const auto& hinges = character_->hinges();
   for (size_t i = 0; i < hinges.size(); ++i) {
-    const ActuatedHinge& h = hinges[i];
+    const character::ActuatedHinge& h = hinges[i];
     double a = action[i];
     if (!std::isfinite(a)) {
       ++bad_actions_;
@@ -456,23 +465,23 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     }
     d->ctrl[h.actuator] = std::clamp(target, h.lower, h.upper);
   }
+}
 
+void ImitationEnv::ApplyPushes() {
   if (perturbations_) {
     const MotionSetEntry& entry = motions_->entry(reference_entry_);
-    perturbations_->BeforeStep(d, !entry.get_up, {heading(), TellsToStandStill(entry.command)});
+    perturbations_->BeforeStep(data_.get(), !entry.get_up,
+                               {heading(), TellsToStandStill(entry.command)});
   }
-  // mj_step = mj_step1 (positions, velocities, contacts) + mj_step2 (forces, integration).
-  // Running step1 after each integration instead of before keeps every derived quantity in
-  // `d` current for the observation and reward at no extra cost (Euler integrator).
-  for (int s = 0; s < config_.substeps; ++s) {
-    mj_step2(m, d);
-    mj_step1(m, d);
-  }
+}
+
+void ImitationEnv::AdvanceReference(double next_time) {
+  mjData* ref = ref_data_.get();
   const double previous = time_;
   time_ = next_time;
   // Unless the task placed the reference itself, a new cycle of a looping clip moves it onto the
   // character (DeepMimic), so drift from earlier cycles is not scored again. The hinge targets
-  // above do not depend on it.
+  // (SetJointTargets) do not depend on it.
   if (!task_->Advance(*this, rng_) &&
       (task_->reference_heading() || config_.reference_sync != ReferenceSync::kNone) &&
       clip_->loop() &&
@@ -480,8 +489,12 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
     SyncReference(time_);
     ReferenceState(time_, ref->qpos, ref->qvel);
   }
-  ++episode_.length;
+}
 
+StepResult ImitationEnv::ScoreStep() {
+  const mjModel* m = character_->model();
+  mjData* d = data_.get();
+  mjData* ref = ref_data_.get();
   StepResult result;
   if (Diverged()) {
     ++unstable_resets_;
@@ -509,7 +522,10 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
       result.truncated = true;
     }
   }
+  return result;
+}
 
+void ImitationEnv::UpdateEpisode(const StepResult& result, int falls_before) {
   episode_.task_falls = task_->falls();
   episode_.episode_return += result.reward;
   term_sums_.rotation += result.terms.rotation;
@@ -537,7 +553,19 @@ StepResult ImitationEnv::Step(const float* action, float* observation) {
   }
   episode_.normalized_return =
       episode_.episode_return / (spec_.max_reward_per_step * episode_.max_length);
+}
 
+StepResult ImitationEnv::Step(const float* action, float* observation) {
+  const double next_time = time_ + config_.control_dt();
+  ReferenceState(next_time, ref_data_->qpos, ref_data_->qvel);
+  const int falls_before = task_->falls();
+  SetJointTargets(action);
+  ApplyPushes();
+  RunSubsteps(character_->model(), data_.get(), config_.substeps);
+  AdvanceReference(next_time);
+  ++episode_.length;
+  StepResult result = ScoreStep();
+  UpdateEpisode(result, falls_before);
   WriteObservation(observation);
   return result;
 }

@@ -8,13 +8,13 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/env_config.h"
-#include "actor/sim/imitation_reward.h"
-#include "actor/sim/motion_clip.h"
-#include "actor/sim/motion_set.h"
-#include "actor/sim/perturbations.h"
-#include "actor/sim/task.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
+#include "sim/env_config.h"
+#include "sim/imitation_reward.h"
+#include "sim/motion_set.h"
+#include "sim/perturbations.h"
+#include "sim/task.h"
 
 namespace ragdoll::sim {
 
@@ -36,7 +36,7 @@ struct EnvSpec {
 };
 
 // The spec of the environment `config` describes, for `character`, without building it.
-EnvSpec MakeEnvSpec(const EnvConfig& config, const Character& character);
+EnvSpec MakeEnvSpec(const EnvConfig& config, const character::Character& character);
 // The same, loading the config's character (for tools that need only the sizes and names).
 EnvSpec MakeEnvSpec(const EnvConfig& config);
 
@@ -83,12 +83,14 @@ class ImitationEnv final : public TaskHost {
   // The character's model timestep must equal config.physics_dt() (load it with
   // Character::Load(path, config.physics_dt())). Throws ConfigError for names in the config
   // that the character lacks.
-  ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionClip> clip,
-               const EnvConfig& config, uint64_t seed);
+  ImitationEnv(std::shared_ptr<const character::Character> character,
+               std::shared_ptr<const character::MotionClip> clip, const EnvConfig& config,
+               uint64_t seed);
   // With config.steering: the steering task on `motions` (LoadMotionSet). Without, `motions`
   // holds the one clip. `task` replaces the config's (MakeTask) when given.
-  ImitationEnv(std::shared_ptr<const Character> character, std::shared_ptr<const MotionSet> motions,
-               const EnvConfig& config, uint64_t seed, std::unique_ptr<Task> task = nullptr);
+  ImitationEnv(std::shared_ptr<const character::Character> character,
+               std::shared_ptr<const MotionSet> motions, const EnvConfig& config, uint64_t seed,
+               std::unique_ptr<Task> task = nullptr);
 
   const EnvSpec& spec() const { return spec_; }
   // The task on top of imitation (Steering() reaches the steering task's commands).
@@ -113,13 +115,13 @@ class ImitationEnv final : public TaskHost {
 
   // An external force (world frame, newtons) on a body's centre of mass, applied in every
   // physics step until changed; a reset clears it. For perturbation trials.
-  void SetExternalForce(int body, const Vec3& force);
+  void SetExternalForce(int body, const character::Vec3& force);
   // Replaces the simulated state (for tests and perturbation tools); keeps the episode going.
   void SetState(const double* qpos, const double* qvel) override;
   const mjData& data() const override { return *data_; }
-  const Character& character() const override { return *character_; }
+  const character::Character& character() const override { return *character_; }
   // The clip imitated now (steering: the current command's clip, or a transition).
-  const MotionClip& clip() const override { return *clip_; }
+  const character::MotionClip& clip() const override { return *clip_; }
   // The bodies that may touch the ground (the config's list, or the clip's when it says auto).
   const std::vector<std::string>& allowed_contacts() const { return config_.allowed_contacts; }
   double time() const override { return time_; }
@@ -135,7 +137,7 @@ class ImitationEnv final : public TaskHost {
   int reference_entry() const override { return reference_entry_; }
   // The character's yaw, radians, and its centre of mass, world.
   double heading() const override;
-  Vec3 CentreOfMass() const override;
+  character::Vec3 CentreOfMass() const override;
   // Rewrites the current observation (after a command, which changes the task's part).
   void Observe(float* observation) const { WriteObservation(observation); }
   void SwitchReference(int entry) override;
@@ -158,23 +160,29 @@ class ImitationEnv final : public TaskHost {
   RewardTerms Score();
   bool Diverged() const;
   EpisodeEnd CheckTermination() const;
+  // The pieces of Step, in its order.
+  void SetJointTargets(const float* action);
+  void ApplyPushes();
+  void AdvanceReference(double next_time);
+  StepResult ScoreStep();
+  void UpdateEpisode(const StepResult& result, int falls_before);
 
-  std::shared_ptr<const Character> character_;
+  std::shared_ptr<const character::Character> character_;
   std::shared_ptr<const MotionSet> motions_;
   int reference_entry_ = 0;
-  const MotionClip* clip_ = nullptr;  // motions_'s reference_entry_
+  const character::MotionClip* clip_ = nullptr;  // motions_'s reference_entry_
   EnvConfig config_;
   EnvSpec spec_;
   std::mt19937_64 rng_;
-  DataPtr data_;
-  DataPtr ref_data_;                    // the reference pose, kinematics only
+  character::DataPtr data_;
+  character::DataPtr ref_data_;         // the reference pose, kinematics only
   std::vector<double> joint_weights_;   // per skeleton joint
   std::vector<int> hinge_joint_;        // skeleton joint of each actuated hinge
   std::vector<char> may_touch_ground_;  // per body
   // Reference joint coordinates just before and after a time, for velocities by differences.
   mutable std::vector<double> qpos_before_, qpos_after_;
   std::vector<double> qvel_scratch_;
-  mutable Pose pose_scratch_;
+  mutable character::Pose pose_scratch_;
   PoseFeatures sim_features_, ref_features_;
   double time_ = 0;
   // Where the reference is drawn: the clip turned by reference_yaw_ about the vertical and moved

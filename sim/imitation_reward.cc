@@ -1,11 +1,11 @@
-#include "actor/sim/imitation_reward.h"
+#include "sim/imitation_reward.h"
 
 #include <cmath>
 
 namespace ragdoll::sim {
 namespace {
 
-double SquaredDistance(const Vec3& a, const Vec3& b) {
+double SquaredDistance(const character::Vec3& a, const character::Vec3& b) {
   double s = 0;
   for (int k = 0; k < 3; ++k) s += (a[k] - b[k]) * (a[k] - b[k]);
   return s;
@@ -22,7 +22,7 @@ RewardErrors ImitationErrors(const RewardConfig& config, const std::vector<doubl
   double normaliser = weight_sum > 0 ? 1 / weight_sum : 0;
 
   for (size_t j = 0; j < sim.joint_rotations.size(); ++j) {
-    double angle = AngleBetween(sim.joint_rotations[j], ref.joint_rotations[j]);
+    double angle = character::AngleBetween(sim.joint_rotations[j], ref.joint_rotations[j]);
     e.rotation += joint_weights[j] * normaliser * angle * angle;
   }
   for (size_t i = 0; i < sim.joint_velocities.size(); ++i) {
@@ -34,7 +34,7 @@ RewardErrors ImitationErrors(const RewardConfig& config, const std::vector<doubl
   }
   if (!sim.end_effectors.empty()) e.end_effector /= static_cast<double>(sim.end_effectors.size());
   e.com = SquaredDistance(sim.com, ref.com);
-  double root_angle = AngleBetween(sim.root_rotation, ref.root_rotation);
+  double root_angle = character::AngleBetween(sim.root_rotation, ref.root_rotation);
   e.root = SquaredDistance(sim.root_position, ref.root_position) +
            config.root_rotation_factor * root_angle * root_angle +
            config.root_linear_velocity_factor *

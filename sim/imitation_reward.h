@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
 namespace ragdoll::sim {
 
@@ -34,15 +34,19 @@ struct RewardConfig {
 
 // What the reward compares, for the simulated character or the reference.
 struct PoseFeatures {
-  std::vector<Quat> joint_rotations;     // per skeleton joint, relative to its parent
-  std::vector<double> joint_velocities;  // per actuated hinge, rad/s
-  std::vector<Vec3> end_effectors;       // hands and feet relative to the root, world axes, m
-  Vec3 com = {0, 0, 0};                  // centre of mass, world, m
-  Vec3 root_position = {0, 0, 0};
-  Quat root_rotation = kIdentityQuat;
-  Vec3 root_linear_velocity = {0, 0, 0};   // world, m/s
-  Vec3 root_angular_velocity = {0, 0, 0};  // root frame, rad/s
+  std::vector<character::Quat> joint_rotations;  // per skeleton joint, relative to its parent
+  std::vector<double> joint_velocities;          // per actuated hinge, rad/s
+  std::vector<character::Vec3> end_effectors;  // hands and feet relative to the root, world axes, m
+  character::Vec3 com = {0, 0, 0};             // centre of mass, world, m
+  character::Vec3 root_position = {0, 0, 0};
+  character::Quat root_rotation = character::kIdentityQuat;
+  character::Vec3 root_linear_velocity = {0, 0, 0};   // world, m/s
+  character::Vec3 root_angular_velocity = {0, 0, 0};  // root frame, rad/s
 };
+
+// The imitation terms' names, as episode figures and in evaluations, in RewardTerms' order.
+inline constexpr const char* kImitationTerms[] = {"rotation", "velocity", "end_effector", "com",
+                                                  "root"};
 
 // Each term in [0, 1] and their weighted sum.
 struct RewardTerms {

@@ -1,19 +1,19 @@
-#include "actor/sim/motion_set.h"
+#include "sim/motion_set.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
-#include "actor/sim/ground_contacts.h"
-#include "actor/sim/motion_io.h"
+#include "character/ground_contacts.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
 
 namespace ragdoll::sim {
 namespace {
 
 // Reflection in the x-z plane (y -> -y) of a rotation: the axis's x and z flip, the angle stays.
-Quat Reflect(const Quat& q) { return {q[0], -q[1], q[2], -q[3]}; }
+character::Quat Reflect(const character::Quat& q) { return {q[0], -q[1], q[2], -q[3]}; }
 
 void AddGetUpClips(const RecoveryConfig& recovery, std::vector<MotionSetEntry>* entries) {
   if (!recovery.enabled()) return;
@@ -22,7 +22,7 @@ void AddGetUpClips(const RecoveryConfig& recovery, std::vector<MotionSetEntry>* 
         {"get_up_face_up", recovery.face_up}}) {
     MotionSetEntry e;
     e.name = name;
-    e.clip = std::make_shared<const MotionClip>(LoadMotion(file));
+    e.clip = std::make_shared<const character::MotionClip>(character::LoadMotion(file));
     if (e.clip->loop()) {
       throw ConfigError(file + ": get-up clip '" + name +
                         "' loops; a get-up plays once and hands back (\"loop\": false)");
@@ -79,18 +79,18 @@ int MotionSet::Nearest(const Command& command) const {
   return best;
 }
 
-Command MeasureCommand(const MotionClip& clip) {
+Command MeasureCommand(const character::MotionClip& clip) {
   Command c;
   for (int i = 0; i + 1 < clip.num_frames(); ++i) {
-    const Pose& a = clip.frame(i);
-    const Pose& b = clip.frame(i + 1);
-    double yaw_a = YawOf(a.root_rotation), yaw_b = YawOf(b.root_rotation);
-    double mid = yaw_a + 0.5 * WrapAngle(yaw_b - yaw_a);
+    const character::Pose& a = clip.frame(i);
+    const character::Pose& b = clip.frame(i + 1);
+    double yaw_a = character::YawOf(a.root_rotation), yaw_b = character::YawOf(b.root_rotation);
+    double mid = yaw_a + 0.5 * character::WrapAngle(yaw_b - yaw_a);
     double dx = b.root_position[0] - a.root_position[0];
     double dy = b.root_position[1] - a.root_position[1];
     c.forward += std::cos(mid) * dx + std::sin(mid) * dy;
     c.left += -std::sin(mid) * dx + std::cos(mid) * dy;
-    c.turn += WrapAngle(yaw_b - yaw_a);
+    c.turn += character::WrapAngle(yaw_b - yaw_a);
   }
   const double d = clip.duration();
   c.forward /= d;
@@ -99,7 +99,8 @@ Command MeasureCommand(const MotionClip& clip) {
   return c;
 }
 
-MotionClip Mirror(const MotionClip& clip, const Character& character, const std::string& name) {
+character::MotionClip Mirror(const character::MotionClip& clip,
+                             const character::Character& character, const std::string& name) {
   const auto& joints = character.joints();
   std::vector<int> twin(joints.size());
   for (size_t j = 0; j < joints.size(); ++j) {
@@ -118,11 +119,11 @@ MotionClip Mirror(const MotionClip& clip, const Character& character, const std:
                                   "' twin");
     }
   }
-  std::vector<Pose> frames;
+  std::vector<character::Pose> frames;
   std::vector<double> durations;
   for (int f = 0; f < clip.num_frames(); ++f) {
-    const Pose& p = clip.frame(f);
-    Pose m;
+    const character::Pose& p = clip.frame(f);
+    character::Pose m;
     m.root_position = {p.root_position[0], -p.root_position[1], p.root_position[2]};
     m.root_rotation = Reflect(p.root_rotation);
     m.joint_rotations.resize(p.joint_rotations.size());
@@ -132,22 +133,23 @@ MotionClip Mirror(const MotionClip& clip, const Character& character, const std:
     frames.push_back(std::move(m));
     durations.push_back(clip.frame_duration(f));
   }
-  return MotionClip(name, clip.loop(), std::move(durations), std::move(frames),
-                    clip.cycle_transform());
+  return character::MotionClip(name, clip.loop(), std::move(durations), std::move(frames),
+                               clip.cycle_transform());
 }
 
-std::vector<std::string> GroundContacts(const MotionSet& motions, const Character& character) {
+std::vector<std::string> GroundContacts(const MotionSet& motions,
+                                        const character::Character& character) {
   std::vector<std::string> all;
   for (const MotionSetEntry& e : motions.entries()) {
     if (e.get_up) continue;
-    for (const std::string& b : ClipGroundContacts(*e.clip, character)) {
+    for (const std::string& b : character::ClipGroundContacts(*e.clip, character)) {
       if (std::find(all.begin(), all.end(), b) == all.end()) all.push_back(b);
     }
   }
   return all;
 }
 
-void ResolveAllowedContacts(const MotionSet& motions, const Character& character,
+void ResolveAllowedContacts(const MotionSet& motions, const character::Character& character,
                             EnvConfig* config) {
   if (config->contacts_from_clip && config->allowed_contacts.empty()) {
     config->allowed_contacts = GroundContacts(motions, character);
@@ -155,17 +157,17 @@ void ResolveAllowedContacts(const MotionSet& motions, const Character& character
 }
 
 std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config,
-                                               const Character& character) {
+                                               const character::Character& character) {
   std::vector<MotionSetEntry> entries;
   if (!config.steering.enabled()) {
-    auto clip = std::make_shared<const MotionClip>(LoadMotion(config.motion));
+    auto clip = std::make_shared<const character::MotionClip>(character::LoadMotion(config.motion));
     entries.push_back({clip->name(), clip, MeasureCommand(*clip)});
     AddGetUpClips(config.recovery, &entries);
     return std::make_shared<const MotionSet>(std::move(entries));
   }
   const auto& items = config.steering.motions;
   for (const MotionSetItem& item : items) {
-    MotionClip clip = LoadMotion(item.motion);
+    character::MotionClip clip = character::LoadMotion(item.motion);
     if (item.mirror) clip = Mirror(clip, character, item.name);
     if (item.transition() && clip.loop()) {
       throw ConfigError(item.motion + ": transition '" + item.name +
@@ -174,7 +176,7 @@ std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config,
     MotionSetEntry e;
     e.name = item.name;
     e.command = item.command_from_clip ? MeasureCommand(clip) : item.command;
-    e.clip = std::make_shared<const MotionClip>(std::move(clip));
+    e.clip = std::make_shared<const character::MotionClip>(std::move(clip));
     entries.push_back(std::move(e));
   }
   for (size_t i = 0; i < items.size(); ++i) {

@@ -6,15 +6,15 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/env_config.h"
-#include "actor/sim/motion_clip.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
+#include "sim/env_config.h"
 
 namespace ragdoll::sim {
 
 struct MotionSetEntry {
   std::string name;
-  std::shared_ptr<const MotionClip> clip;
+  std::shared_ptr<const character::MotionClip> clip;
   Command command;  // a transition's is its `to` entry's
   int from = -1;    // a transition: the entries it leads between; -1 otherwise
   int to = -1;
@@ -47,24 +47,27 @@ class MotionSet {
 
 // The command a clip demonstrates: its root's mean planar velocity expressed in its own heading
 // frame, frame by frame, and its mean turn rate, over one pass of the clip.
-Command MeasureCommand(const MotionClip& clip);
+Command MeasureCommand(const character::MotionClip& clip);
 
 // The clip reflected in the character's sagittal (x-z) plane: every right_* joint takes the
 // mirrored rotation of its left_* twin and the other way round. Walking left from walking right.
-MotionClip Mirror(const MotionClip& clip, const Character& character, const std::string& name);
+character::MotionClip Mirror(const character::MotionClip& clip,
+                             const character::Character& character, const std::string& name);
 
 // Every body some clip of the set other than a get-up clip puts on the floor (ClipGroundContacts),
 // feet included.
-std::vector<std::string> GroundContacts(const MotionSet& motions, const Character& character);
+std::vector<std::string> GroundContacts(const MotionSet& motions,
+                                        const character::Character& character);
 // `allowed_contacts: auto` resolved once: fills config->allowed_contacts with GroundContacts
 // unless the config gives its own list or it is already filled (so a process resolves it once
 // and every environment built from the config reuses the list).
-void ResolveAllowedContacts(const MotionSet& motions, const Character& character,
+void ResolveAllowedContacts(const MotionSet& motions, const character::Character& character,
                             EnvConfig* config);
 
 // Loads, mirrors and measures every clip of `steering` (ConfigError naming the file when one
 // does not load). The set of a config without steering is its one clip, command measured. With
 // `recovery`, the two get-up clips follow, named "get_up_face_down" and "get_up_face_up".
-std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config, const Character& character);
+std::shared_ptr<const MotionSet> LoadMotionSet(const EnvConfig& config,
+                                               const character::Character& character);
 
 }  // namespace ragdoll::sim

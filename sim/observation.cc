@@ -1,9 +1,9 @@
-#include "actor/sim/observation.h"
+#include "sim/observation.h"
 
 #include <cmath>
 
-#include "actor/sim/character.h"
-#include "actor/sim/rotation.h"
+#include "character/character.h"
+#include "character/rotation.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -32,11 +32,11 @@ float* PutVector(const double* heading_inverse, const double* v, float* out) {
 
 }  // namespace
 
-int ObservationSize(const Character& character) {
+int ObservationSize(const character::Character& character) {
   return kRootSize + kBodySize * (static_cast<int>(character.bodies().size()) - 1) + kPhaseSize;
 }
 
-std::vector<std::string> ObservationNames(const Character& character) {
+std::vector<std::string> ObservationNames(const character::Character& character) {
   const mjModel* m = character.model();
   std::vector<std::string> names;
   auto add = [&names](const std::string& prefix, const char* parts) {
@@ -63,13 +63,14 @@ std::vector<std::string> ObservationNames(const Character& character) {
   return names;
 }
 
-void BuildObservation(const Character& character, const mjData& data, double phase, float* out) {
+void BuildObservation(const character::Character& character, const mjData& data, double phase,
+                      float* out) {
   const mjModel* m = character.model();
   const int root = character.root_body();
   const double* root_pos = data.xpos + 3 * root;
   const double* root_quat = data.xquat + 4 * root;
-  Quat root_rotation = {root_quat[0], root_quat[1], root_quat[2], root_quat[3]};
-  Quat heading_inverse = Conjugate(HeadingOf(root_rotation));
+  character::Quat root_rotation = {root_quat[0], root_quat[1], root_quat[2], root_quat[3]};
+  character::Quat heading_inverse = character::Conjugate(character::HeadingOf(root_rotation));
 
   double velocity[6];  // (angular, linear) at the body origin, world axes
   *out++ = static_cast<float>(root_pos[2]);

@@ -1,4 +1,4 @@
-#include "actor/sim/perturbations.h"
+#include "sim/perturbations.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,8 +19,9 @@ constexpr double kQuarterFloor = 0.05;
 
 }  // namespace
 
-Perturbations::Perturbations(const PerturbationConfig& config, const Character& character,
-                             double control_dt, uint64_t seed)
+Perturbations::Perturbations(const PerturbationConfig& config,
+                             const character::Character& character, double control_dt,
+                             uint64_t seed)
     : config_(config), control_dt_(control_dt), rng_(seed) {
   for (const auto& name : config.bodies) {
     const int id = mj_name2id(character.model(), mjOBJ_BODY, name.c_str());

@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/env_config.h"
-#include "actor/sim/task.h"
+#include "character/character.h"
+#include "sim/env_config.h"
+#include "sim/task.h"
 
 namespace ragdoll::sim {
 
@@ -26,8 +26,8 @@ struct PushSituation {
 class Perturbations {
  public:
   // Throws ConfigError for a body the character lacks.
-  Perturbations(const PerturbationConfig& config, const Character& character, double control_dt,
-                uint64_t seed);
+  Perturbations(const PerturbationConfig& config, const character::Character& character,
+                double control_dt, uint64_t seed);
 
   // Directions in quarters of the character's heading, counter-clockwise seen from above.
   enum Quarter { kForward, kLeft, kBackward, kRight };

@@ -1,9 +1,9 @@
-#include "actor/sim/recovery_task.h"
+#include "sim/recovery_task.h"
 
 #include <stdexcept>
 
-#include "actor/sim/falls.h"
-#include "actor/sim/ground_contacts.h"
+#include "character/ground_contacts.h"
+#include "sim/falls.h"
 
 namespace ragdoll::sim {
 
@@ -66,12 +66,12 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
   if (may_touch_ground_.empty()) {
     face_down_ = set.Find("get_up_face_down");
     face_up_ = set.Find("get_up_face_up");
-    const Character& character = env.character();
+    const character::Character& character = env.character();
     may_touch_ground_.assign(character.model()->nbody, 0);
     for (const std::string& body : GroundContacts(set, character)) {
       may_touch_ground_[mj_name2id(character.model(), mjOBJ_BODY, body.c_str())] = 1;
     }
-    const MotionClip& base = *set.entry(inner_->StartEntry(set)).clip;
+    const character::MotionClip& base = *set.entry(inner_->StartEntry(set)).clip;
     stand_height_ = StandHeight(base);
     // Only early_termination looks at which bodies a get-up lets touch the floor.
     get_up_may_touch_.assign(set.size(), {});
@@ -79,8 +79,8 @@ void RecoveryTask::Start(TaskHost& env, std::mt19937_64& rng) {
       if (!config_.early_termination) continue;
       std::vector<char>& may_touch = get_up_may_touch_[entry];
       may_touch = may_touch_ground_;
-      for (const auto& [body, share] : GroundContactFractions(*set.entry(entry).clip, character,
-                                                              config_.early_termination_height)) {
+      for (const auto& [body, share] : character::GroundContactFractions(
+               *set.entry(entry).clip, character, config_.early_termination_height)) {
         may_touch[mj_name2id(character.model(), mjOBJ_BODY, body.c_str())] = 1;
       }
     }
@@ -116,7 +116,7 @@ bool GetUpContactFails(bool settling, const std::vector<char>& on_ground,
 }
 
 bool RecoveryTask::Fallen(const TaskHost& env) {
-  return TouchesGroundOutside(env.character().model(), env.data(), may_touch_ground_);
+  return character::TouchesGroundOutside(env.character().model(), env.data(), may_touch_ground_);
 }
 
 void RecoveryTask::GetUp(TaskHost& env) {
@@ -125,7 +125,7 @@ void RecoveryTask::GetUp(TaskHost& env) {
   if (get_up_entry_ < 0) {
     ++falls_;
     down_steps_ = 0;
-    BodiesOnGround(env.character().model(), env.data(), &lying_on_);
+    character::BodiesOnGround(env.character().model(), env.data(), &lying_on_);
   }
   get_up_entry_ = front_z < 0 ? face_down_ : face_up_;
   env.SwitchReference(get_up_entry_);
@@ -140,7 +140,7 @@ bool RecoveryTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   ++recovering_steps_;
   ++down_steps_;
   if (config_.early_termination) {
-    BodiesOnGround(env.character().model(), env.data(), &on_ground_);
+    character::BodiesOnGround(env.character().model(), env.data(), &on_ground_);
     const bool settling = down_steps_ * control_dt_ <= kSettleSeconds;
     if (GetUpContactFails(settling, on_ground_, get_up_may_touch_[get_up_entry_], &lying_on_)) {
       get_up_failed_ = true;

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/env_config.h"
-#include "actor/sim/task.h"
+#include "sim/env_config.h"
+#include "sim/task.h"
 
 namespace ragdoll::sim {
 

@@ -1,11 +1,11 @@
-#include "actor/sim/steering_task.h"
+#include "sim/steering_task.h"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/recovery_task.h"
+#include "sim/imitation_env.h"
+#include "sim/recovery_task.h"
 
 namespace ragdoll::sim {
 
@@ -43,7 +43,7 @@ void SteeringTask::Check(const MotionSet& set) const {
 }
 
 void SteeringTask::WriteObservation(const TaskHost& env, float* out) const {
-  const double error = WrapAngle(desired_heading_ - env.heading());
+  const double error = character::WrapAngle(desired_heading_ - env.heading());
   const double c = std::cos(error), s = std::sin(error);
   const Command& asked = Asked();
   *out++ = static_cast<float>(c * asked.forward - s * asked.left);
@@ -142,7 +142,7 @@ void SteeringTask::FaceAndTravelAsNow(const TaskHost& env) {
   desired_heading_ = env.heading();
   // The travel history as if the character had moved at its current root velocity for the
   // whole window.
-  const Vec3 com = env.CentreOfMass();
+  const character::Vec3 com = env.CentreOfMass();
   const double* qvel = env.data().qvel;
   const int n = static_cast<int>(com_history_.size());
   for (int i = 0; i < n; ++i) {
@@ -152,10 +152,10 @@ void SteeringTask::FaceAndTravelAsNow(const TaskHost& env) {
   com_head_ = n - 1;  // the newest
 }
 
-Vec3 SteeringTask::TravelVelocity() const {
+character::Vec3 SteeringTask::TravelVelocity() const {
   const int n = static_cast<int>(com_history_.size());
-  const Vec3& newest = com_history_[com_head_];
-  const Vec3& oldest = com_history_[(com_head_ + 1) % n];
+  const character::Vec3& newest = com_history_[com_head_];
+  const character::Vec3& oldest = com_history_[(com_head_ + 1) % n];
   const double span = (n - 1) * control_dt_;
   return {(newest[0] - oldest[0]) / span, (newest[1] - oldest[1]) / span, 0};
 }
@@ -163,14 +163,14 @@ Vec3 SteeringTask::TravelVelocity() const {
 double SteeringTask::SpeedError() const { return SpeedErrorFrom(command_); }
 
 double SteeringTask::SpeedErrorFrom(const Command& command) const {
-  const Vec3 v = TravelVelocity();
+  const character::Vec3 v = TravelVelocity();
   const double c = std::cos(desired_heading_), s = std::sin(desired_heading_);
   return std::hypot(v[0] - (c * command.forward - s * command.left),
                     v[1] - (s * command.forward + c * command.left));
 }
 
 double SteeringTask::HeadingError(const TaskHost& env) const {
-  return WrapAngle(env.heading() - desired_heading_);
+  return character::WrapAngle(env.heading() - desired_heading_);
 }
 
 double SteeringTask::Reward(const TaskHost& env, const PoseFeatures& character) {
@@ -216,7 +216,7 @@ bool SteeringTask::ChangeCommand(TaskHost& env, int entry) {
 
 bool SteeringTask::Advance(TaskHost& env, std::mt19937_64& rng) {
   episode_time_ += control_dt_;
-  desired_heading_ = WrapAngle(desired_heading_ + Asked().turn * control_dt_);
+  desired_heading_ = character::WrapAngle(desired_heading_ + Asked().turn * control_dt_);
   if (resume_pending_ && !standing_after_get_up() && catching_ < 0) {
     resume_pending_ = false;  // the stand after a get-up is over: the command leads
     Lead(env);

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/env_config.h"
-#include "actor/sim/task.h"
+#include "sim/env_config.h"
+#include "sim/task.h"
 
 namespace ragdoll::sim {
 
@@ -66,7 +66,7 @@ class SteeringTask final : public Task {
   // The yaw the character should face (integrates the command's turn), radians.
   double desired_heading() const { return desired_heading_; }
   // Horizontal centre-of-mass velocity averaged over the last velocity_window seconds, world.
-  Vec3 TravelVelocity() const;
+  character::Vec3 TravelVelocity() const;
   // |TravelVelocity() - commanded velocity| (m/s) and the heading error wrapped to [-pi, pi]:
   // against the command given, also while the character stands after a get-up.
   double SpeedError() const;
@@ -106,7 +106,8 @@ class SteeringTask final : public Task {
   double desired_heading_ = 0;
   double episode_time_ = 0;
   double next_command_time_ = 0;
-  std::vector<Vec3> com_history_;  // ring of the last window + 1 control steps' centre of mass
+  std::vector<character::Vec3>
+      com_history_;  // ring of the last window + 1 control steps' centre of mass
   int com_head_ = 0;
   double error_sums_[2] = {0, 0};  // speed, heading
 };

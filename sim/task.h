@@ -10,10 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/imitation_reward.h"
-#include "actor/sim/motion_clip.h"
-#include "actor/sim/motion_set.h"
+#include "character/character.h"
+#include "character/motion_clip.h"
+#include "sim/imitation_reward.h"
+#include "sim/motion_set.h"
 
 namespace ragdoll::sim {
 
@@ -21,18 +21,18 @@ namespace ragdoll::sim {
 // motion set is imitated, and the state an episode starts in.
 class TaskHost {
  public:
-  virtual const Character& character() const = 0;
+  virtual const character::Character& character() const = 0;
   // The simulated state (positions and velocities current, as after mj_forward).
   virtual const mjData& data() const = 0;
   // The character's yaw, radians.
   virtual double heading() const = 0;
-  virtual Vec3 CentreOfMass() const = 0;
+  virtual character::Vec3 CentreOfMass() const = 0;
   virtual const MotionSet& motion_set() const = 0;
   // Replaces the simulated state (a task that starts its episodes fallen).
   virtual void SetState(const double* qpos, const double* qvel) = 0;
   // The motion-set entry imitated now, its clip and the time in it, s.
   virtual int reference_entry() const = 0;
-  virtual const MotionClip& clip() const = 0;
+  virtual const character::MotionClip& clip() const = 0;
   virtual double time() const = 0;
   // The reference becomes `entry`'s clip at the key frame whose pose is closest to the
   // character's, placed on the character (facing Task::reference_heading() when it has one).

@@ -1,6 +1,7 @@
 # Converts a BVH file into FBX (binary, as Blender and Autodesk's tools write it), glTF binary
-# or COLLADA with Blender's own importer and exporters: `ragdoll bake --out FILE.fbx|.dae` runs
-# it on the BVH it bakes, and the tests make files another program wrote with it:
+# or COLLADA with Blender's own importer and exporters: `ragdoll bake --out FILE.fbx` runs it on
+# the BVH it bakes (bake refuses .dae, cli/bake_command.cc says why), and the tests make files
+# another program wrote with it, COLLADA among them:
 #   blender -b --factory-startup --python convert.py -- IN.bvh OUT.{fbx,glb,dae}
 import os
 import sys

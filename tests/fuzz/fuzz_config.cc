@@ -4,13 +4,13 @@
 #include <cstdint>
 #include <string>
 
-#include "actor/sim/character.h"
-#include "actor/sim/env_config.h"
+#include "character/character.h"
 #include "common/config_section.h"
 #include "common/endpoints.h"
 #include "common/metrics.h"
 #include "learner/learner_process.h"
 #include "learner/trainer_config.h"
+#include "sim/env_config.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace ragdoll;
@@ -33,7 +33,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       learner::ReadReplicaSettings(root.Section("learner"));
     } catch (const ConfigError&) {
     }
-    sim::ReadEnvConfig(root.Section("environment"), sim::DefaultCharacterPath());
+    sim::ReadEnvConfig(root.Section("environment"), character::DefaultCharacterPath());
   } catch (const ConfigError&) {
   }
   return 0;

@@ -4,12 +4,12 @@
 #include <cstdint>
 #include <string>
 
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
-    ragdoll::sim::MotionClip clip = ragdoll::sim::ParseMotion(
+    ragdoll::character::MotionClip clip = ragdoll::character::ParseMotion(
         std::string(reinterpret_cast<const char*>(data), size), "fuzz.json");
     for (double t : {0.0, 0.37 * clip.duration(), clip.duration(), 2.5 * clip.duration()}) {
       clip.Sample(t);

@@ -16,10 +16,10 @@
 #include <vector>
 
 #include "actor/rollout.h"
-#include "actor/sim/observation.h"
-#include "cli/trained_policy.h"
 #include "common/policy.h"
 #include "common/running_stats.h"
+#include "run/trained_policy.h"
+#include "sim/observation.h"
 
 namespace {
 
@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
     const int steps = std::atoi(argv[2]);
     const std::filesystem::path out = argv[3];
     const uint64_t seed = argc > 4 ? std::strtoull(argv[4], nullptr, 10) : 1;
-    cli::TrainedPolicy p = cli::LoadTrainedPolicy(argv[1]);
+    run::TrainedPolicy p = run::LoadTrainedPolicy(argv[1]);
     actor::RolloutWorker worker(p.experiment.environment, 1, 1, seed, "recorder");
     worker.SetPolicy(p.snapshot);
     sim::ImitationEnv& env = worker.environment(0);

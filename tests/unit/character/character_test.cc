@@ -1,4 +1,4 @@
-#include "actor/sim/character.h"
+#include "character/character.h"
 
 #include <gtest/gtest.h>
 
@@ -6,9 +6,9 @@
 #include <map>
 #include <string>
 
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 namespace {
 
 const std::string kCharacter = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
@@ -185,4 +185,4 @@ TEST(CharacterLoad, RejectsBadFilesNamingThem) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

@@ -1,4 +1,4 @@
-#include "actor/sim/motion_clip.h"
+#include "character/motion_clip.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_io.h"
-#include "actor/sim/skeleton.h"
+#include "character/character.h"
+#include "character/motion_io.h"
+#include "character/skeleton.h"
 #include "common/config_section.h"
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 namespace {
 
 using ::testing::HasSubstr;
@@ -921,4 +921,4 @@ TEST(DeepMimicWalkOnHumanoid, FeetTouchTheFloorWithoutSinking) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

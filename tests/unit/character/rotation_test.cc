@@ -1,4 +1,4 @@
-#include "actor/sim/rotation.h"
+#include "character/rotation.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <random>
 #include <string>
 
-namespace ragdoll::sim {
+namespace ragdoll::character {
 namespace {
 
 constexpr double kDeg = M_PI / 180;
@@ -238,4 +238,4 @@ TEST(Heading, HeadingOfKeepsOnlyTheYaw) {
 }
 
 }  // namespace
-}  // namespace ragdoll::sim
+}  // namespace ragdoll::character

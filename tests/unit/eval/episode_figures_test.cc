@@ -10,13 +10,13 @@
 #include <string>
 #include <vector>
 
-#include "actor/evaluation.h"
 #include "actor/rollout.h"
-#include "actor/sim/task.h"
 #include "common/policy.h"
 #include "common/wire.h"
+#include "eval/evaluation.h"
 #include "learner/learner.h"
 #include "learner/training_log.h"
+#include "sim/task.h"
 
 namespace ragdoll {
 namespace {
@@ -92,7 +92,7 @@ TEST(EpisodeFigures, ATasksFigureReachesTheSummaryTheLearnerAndTheEvaluation) {
   EXPECT_NEAR(std::stod(values[column]), height_sum / sums.episodes, 1e-5);
 
   // The evaluation: the task's figures under its name, the reward terms apart.
-  const actor::EvaluationResult result = actor::Evaluate(worker, 2);
+  const eval::EvaluationResult result = eval::Evaluate(worker, 2);
   const nlohmann::json j = nlohmann::json::parse(result.ToJson());
   EXPECT_GT(j.at("balance").at("root_height").get<double>(), 0.5);
   EXPECT_EQ(j.at("reward_terms").size(), 5u);

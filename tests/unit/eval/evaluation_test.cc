@@ -1,4 +1,4 @@
-#include "actor/evaluation.h"
+#include "eval/evaluation.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -8,14 +8,14 @@
 #include <fstream>
 #include <limits>
 
-#include "actor/command_evaluation.h"
-#include "actor/push_evaluation.h"
-#include "actor/recovery_evaluation.h"
 #include "actor/rollout.h"
 #include "common/config_section.h"
 #include "common/policy.h"
+#include "eval/command_evaluation.h"
+#include "eval/push_evaluation.h"
+#include "eval/recovery_evaluation.h"
 
-namespace ragdoll::actor {
+namespace ragdoll::eval {
 namespace {
 
 // An untrained policy (outputs near zero: in offset mode, PD tracking of the reference) on the
@@ -27,7 +27,7 @@ class PushTest : public ::testing::Test {
     env_.character = std::string(RAGDOLL_ASSETS_DIR) + "/character/humanoid.xml";
     env_.action_mode = sim::ActionMode::kOffset;
     torch::manual_seed(3);
-    RolloutWorker probe(env_, 1, 1, 0, "probe");
+    actor::RolloutWorker probe(env_, 1, 1, 0, "probe");
     NetworkConfig net;
     net.hidden_units = {32};
     GaussianPolicy policy(probe.spec().observation_size, probe.spec().action_size, net);
@@ -86,7 +86,7 @@ TEST_F(PushTest, TheProtocolBisectsToTheLargestImpulseSurvivedPerDirection) {
   protocol.resolution = 8;
   protocol.directions = {"forward", "left"};
   const PushProtocolResult r = EvaluatePushProtocol(env_, snapshot_, protocol, 5);
-  const auto character = sim::Character::Load(env_.character, env_.physics_dt());
+  const auto character = character::Character::Load(env_.character, env_.physics_dt());
   double mass = 0;
   for (int b = 1; b < character->model()->nbody; ++b) mass += character->model()->body_mass[b];
   EXPECT_NEAR(r.mass, mass, 1e-9);
@@ -169,7 +169,7 @@ class CommandEvalTest : public ::testing::Test {
     env_.steering.motions.push_back(item);
     env_.motion = stand;
     torch::manual_seed(3);
-    RolloutWorker probe(env_, 1, 1, 0, "probe");
+    actor::RolloutWorker probe(env_, 1, 1, 0, "probe");
     NetworkConfig net;
     net.hidden_units = {32};
     GaussianPolicy policy(probe.spec().observation_size, probe.spec().action_size, net);
@@ -179,7 +179,7 @@ class CommandEvalTest : public ::testing::Test {
       for (auto& p : policy->parameters()) p.zero_();
     }
     snapshot_ = MakeSnapshot(policy, RunningStats(probe.spec().observation_size), 7, 0);
-    character_ = sim::Character::Load(env_.character, env_.physics_dt());
+    character_ = character::Character::Load(env_.character, env_.physics_dt());
     motions_ = sim::LoadMotionSet(env_, *character_);
   }
   std::string Script(const std::string& text) {
@@ -193,7 +193,7 @@ class CommandEvalTest : public ::testing::Test {
   int scripts_ = 0;
   sim::EnvConfig env_;
   v1::PolicySnapshot snapshot_;
-  std::shared_ptr<const sim::Character> character_;
+  std::shared_ptr<const character::Character> character_;
   std::shared_ptr<const sim::MotionSet> motions_;
 };
 
@@ -286,7 +286,7 @@ TEST_F(CommandEvalTest, AScriptsPushesAreGivenAtTheirTimes) {
   const double* f = env.data().xfrc_applied + 6 * chest;
   EXPECT_NEAR(std::hypot(f[0], f[1]), 400 / 0.2, 1e-9);
   // Left of where the character faces: 90 degrees counter-clockwise of its heading.
-  EXPECT_NEAR(std::atan2(f[1], f[0]), sim::WrapAngle(env.heading() + M_PI / 2), 1e-9);
+  EXPECT_NEAR(std::atan2(f[1], f[0]), character::WrapAngle(env.heading() + M_PI / 2), 1e-9);
   EXPECT_EQ(pushes.Describe(0.6, 1.0), "push 400 N s left");
   EXPECT_FALSE(pushes.Before(env, 0.7));
   EXPECT_EQ(f[0], 0.0);
@@ -315,7 +315,7 @@ TEST_F(CommandEvalTest, RandomPushesComeOnTimeAndLastTheirTime) {
       angles.push_back(a.last_angle());
       EXPECT_EQ(a.last_impulse(), 40);
       EXPECT_NEAR(std::hypot(f[0], f[1]), 40 / 0.2, 1e-9);
-      EXPECT_NEAR(std::atan2(f[1], f[0]), sim::WrapAngle(a.last_angle()), 1e-9);
+      EXPECT_NEAR(std::atan2(f[1], f[0]), character::WrapAngle(a.last_angle()), 1e-9);
     }
     if (std::hypot(f[0], f[1]) > 0) pushing.push_back(step);
   }
@@ -473,4 +473,4 @@ TEST(KnockDownClockTest, TimesFromTheKnockToASecondBackOnCommand) {
 }
 
 }  // namespace
-}  // namespace ragdoll::actor
+}  // namespace ragdoll::eval

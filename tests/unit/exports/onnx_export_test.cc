@@ -1,4 +1,4 @@
-#include "cli/onnx_export.h"
+#include "exports/onnx_export.h"
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
@@ -16,7 +16,7 @@
 
 #include "common/running_stats.h"
 
-namespace ragdoll::cli {
+namespace ragdoll::exports {
 namespace {
 namespace fs = std::filesystem;
 
@@ -297,4 +297,4 @@ TEST_P(OnnxExportErrorsTest, WritesBothFilesWholeOrNeither) {
 INSTANTIATE_TEST_SUITE_P(Tanh, OnnxExportErrorsTest, ::testing::Values("tanh"));
 
 }  // namespace
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::exports

@@ -11,8 +11,8 @@
 
 namespace ragdoll::motion {
 
-using sim::kIdentityQuat;
-using sim::Vec3;
+using character::kIdentityQuat;
+using character::Vec3;
 
 namespace {
 

@@ -8,10 +8,10 @@
 
 namespace ragdoll::motion {
 
-using sim::AxisAngle;
-using sim::Multiply;
-using sim::Rotate;
-using sim::Vec3;
+using character::AxisAngle;
+using character::Multiply;
+using character::Rotate;
+using character::Vec3;
 
 namespace {
 

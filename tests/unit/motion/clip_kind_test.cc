@@ -5,14 +5,14 @@
 #include <cstdio>
 #include <string>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_io.h"
+#include "character/character.h"
+#include "character/motion_io.h"
 
 namespace ragdoll::motion {
 namespace {
 
-using sim::LoadMotion;
-using sim::MotionClip;
+using character::LoadMotion;
+using character::MotionClip;
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
 
@@ -53,7 +53,7 @@ TEST(ClipKind, LoopsAreToldFromTheirEnds) {
 }
 
 TEST(ClipKind, EachShippedClipGetsItsTemplate) {
-  auto character = sim::Character::Load(sim::DefaultCharacterPath());
+  auto character = character::Character::Load(character::DefaultCharacterPath());
   struct Case {
     std::string clip;
     ClipKind kind;

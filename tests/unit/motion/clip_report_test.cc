@@ -2,18 +2,18 @@
 
 #include <gtest/gtest.h>
 
-#include "actor/sim/motion_io.h"
-#include "actor/sim/skeleton.h"
+#include "character/motion_io.h"
+#include "character/skeleton.h"
 
 namespace ragdoll::motion {
 
-using sim::AxisAngle;
-using sim::Character;
-using sim::FindJoint;
-using sim::Humanoid3dJoints;
-using sim::LoadMotion;
-using sim::MotionClip;
-using sim::Pose;
+using character::AxisAngle;
+using character::Character;
+using character::FindJoint;
+using character::Humanoid3dJoints;
+using character::LoadMotion;
+using character::MotionClip;
+using character::Pose;
 
 namespace {
 

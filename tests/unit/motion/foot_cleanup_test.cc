@@ -5,19 +5,19 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "actor/sim/motion_io.h"
-#include "actor/sim/skeleton.h"
+#include "character/motion_io.h"
+#include "character/skeleton.h"
 #include "motion/clip_report.h"
 
 namespace ragdoll::motion {
 
-using sim::Character;
-using sim::DataPtr;
-using sim::FindJoint;
-using sim::LoadMotion;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Vec3;
+using character::Character;
+using character::DataPtr;
+using character::FindJoint;
+using character::LoadMotion;
+using character::MotionClip;
+using character::Pose;
+using character::Vec3;
 
 namespace {
 

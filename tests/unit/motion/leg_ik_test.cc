@@ -9,14 +9,14 @@
 
 namespace ragdoll::motion {
 
-using sim::AngleBetween;
-using sim::Character;
-using sim::DataPtr;
-using sim::DefaultCharacterPath;
-using sim::kIdentityQuat;
-using sim::Normalized;
-using sim::Quat;
-using sim::Vec3;
+using character::AngleBetween;
+using character::Character;
+using character::DataPtr;
+using character::DefaultCharacterPath;
+using character::kIdentityQuat;
+using character::Normalized;
+using character::Quat;
+using character::Vec3;
 
 namespace {
 

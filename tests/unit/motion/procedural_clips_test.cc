@@ -5,22 +5,22 @@
 #include <cmath>
 #include <functional>
 
-#include "actor/sim/motion_io.h"
-#include "actor/sim/skeleton.h"
+#include "character/motion_io.h"
+#include "character/skeleton.h"
 
 namespace ragdoll::motion {
 
-using sim::AngleBetween;
-using sim::Character;
-using sim::CharacterJoint;
-using sim::DataPtr;
-using sim::DecomposeHinges;
-using sim::kIdentityQuat;
-using sim::LoadMotion;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Vec3;
-using sim::YawOf;
+using character::AngleBetween;
+using character::Character;
+using character::CharacterJoint;
+using character::DataPtr;
+using character::DecomposeHinges;
+using character::kIdentityQuat;
+using character::LoadMotion;
+using character::MotionClip;
+using character::Pose;
+using character::Vec3;
+using character::YawOf;
 
 namespace {
 

@@ -6,22 +6,22 @@
 #include <fstream>
 #include <string>
 
-#include "actor/sim/motion_io.h"
-#include "actor/sim/skeleton.h"
+#include "character/motion_io.h"
+#include "character/skeleton.h"
 #include "common/config_section.h"
 
 namespace ragdoll::motion {
 
-using sim::AngleBetween;
-using sim::Character;
-using sim::FindJoint;
-using sim::LoadMotion;
-using sim::MotionClip;
-using sim::Multiply;
-using sim::Pose;
-using sim::Quat;
-using sim::Rotate;
-using sim::Vec3;
+using character::AngleBetween;
+using character::Character;
+using character::FindJoint;
+using character::LoadMotion;
+using character::MotionClip;
+using character::Multiply;
+using character::Pose;
+using character::Quat;
+using character::Rotate;
+using character::Vec3;
 
 namespace {
 

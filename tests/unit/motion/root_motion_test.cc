@@ -7,15 +7,15 @@
 #include <stdexcept>
 #include <string>
 
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 
 namespace ragdoll::motion {
 
-using sim::Character;
-using sim::LoadMotion;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Vec3;
+using character::Character;
+using character::LoadMotion;
+using character::MotionClip;
+using character::Pose;
+using character::Vec3;
 
 namespace {
 

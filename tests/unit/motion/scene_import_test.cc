@@ -2,7 +2,7 @@
 // GLB, COLLADA) from the project's clips on Mixamo- and CMU-named skeletons, and on damaged
 // copies of them.
 #include "motion/scene_import.h"
-#include "actor/sim/skeleton.h"
+#include "character/skeleton.h"
 
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
@@ -15,22 +15,22 @@
 #include <iterator>
 #include <string>
 
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
 #include "motion/auto_mapping.h"
 #include "motion/retarget.h"
 
 namespace ragdoll::motion {
 
-using sim::AngleBetween;
-using sim::Character;
-using sim::FindJoint;
-using sim::Humanoid3dJoints;
-using sim::LoadMotion;
-using sim::MotionClip;
-using sim::Pose;
-using sim::Quat;
-using sim::Vec3;
+using character::AngleBetween;
+using character::Character;
+using character::FindJoint;
+using character::Humanoid3dJoints;
+using character::LoadMotion;
+using character::MotionClip;
+using character::Pose;
+using character::Quat;
+using character::Vec3;
 
 namespace {
 

@@ -1,5 +1,5 @@
 // The renderer draws what the simulation holds: run under Xvfb (see tests/CMakeLists.txt).
-#include "cli/render/renderer.h"
+#include "render/renderer.h"
 
 #include <gtest/gtest.h>
 
@@ -8,9 +8,9 @@
 #include <fstream>
 #include <set>
 
-#include "actor/sim/character.h"
-#include "actor/sim/motion_io.h"
-#include "cli/render/video.h"
+#include "character/character.h"
+#include "character/motion_io.h"
+#include "render/video.h"
 
 namespace ragdoll::render {
 namespace {
@@ -20,10 +20,10 @@ const std::string kAssets = RAGDOLL_ASSETS_DIR;
 class RenderTest : public ::testing::Test {
  protected:
   RenderTest()
-      : character_(sim::Character::Load(kAssets + "/character/humanoid.xml")),
+      : character_(character::Character::Load(kAssets + "/character/humanoid.xml")),
         data_(character_->MakeData()),
         reference_(character_->MakeData()) {
-    sim::MotionClip walk = sim::LoadMotion(kAssets + "/motions/walk.json");
+    character::MotionClip walk = character::LoadMotion(kAssets + "/motions/walk.json");
     character_->PoseToQpos(walk.Sample(0.3), data_->qpos);
     mj_kinematics(character_->model(), data_.get());
     character_->PoseToQpos(walk.Sample(0.6), reference_->qpos);
@@ -38,8 +38,8 @@ class RenderTest : public ::testing::Test {
     return mj_name2id(character_->model(), mjOBJ_GEOM, name.c_str());
   }
 
-  std::shared_ptr<const sim::Character> character_;
-  sim::DataPtr data_, reference_;
+  std::shared_ptr<const character::Character> character_;
+  character::DataPtr data_, reference_;
 };
 
 TEST_F(RenderTest, DrawsAFrameThatIsNotBlank) {
@@ -69,7 +69,7 @@ TEST_F(RenderTest, DrawsAFrameThatIsNotBlank) {
 // geom's centre projects to is that geom.
 TEST_F(RenderTest, TheCharacterIsWhereTheSimulationSays) {
   // Standing, seen from the front: no part hides another's centre.
-  sim::MotionClip stand = sim::LoadMotion(kAssets + "/motions/stand.json");
+  character::MotionClip stand = character::LoadMotion(kAssets + "/motions/stand.json");
   character_->PoseToQpos(stand.Sample(0), data_->qpos);
   data_->qpos[0] += 0.7;  // away from the origin, so a drawing at the origin would show
   mj_kinematics(character_->model(), data_.get());

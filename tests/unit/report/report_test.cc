@@ -1,4 +1,4 @@
-#include "cli/report.h"
+#include "report/report.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 
 #include "common/config_section.h"
 
-namespace ragdoll::cli {
+namespace ragdoll::report {
 namespace {
 
 const std::string kHeader =
@@ -81,72 +81,8 @@ RunReport RunOf(const std::string& id, const std::string& csv) {
   RunReport r;
   r.id = id;
   r.path = "runs/" + id;
-  r.metrics = ParseMetricsCsv(csv, r.path + "/metrics.csv");
+  r.metrics = learner::ParseMetricsCsv(csv, r.path + "/metrics.csv");
   return r;
-}
-
-TEST(MetricsCsv, ReadsColumnsByNameWithExtraColumnsAnywhere) {
-  // A column the learner may add later (in the middle, to be sure order does not matter).
-  const std::string text =
-      "samples,actor_idle,elapsed_s,normalized_return,episodes\n"
-      "4096,0.25,3.5,0.125,8\n"
-      "8192,0.5,7,0.25,9\n"
-      "12288,0.75,10.5,nan,0\n";
-  MetricsTable m = ParseMetricsCsv(text, "m.csv");
-  ASSERT_EQ(m.rows, 3u);
-  EXPECT_EQ(m.columns.size(), 5u);
-  EXPECT_EQ(*m.Column("samples"), (std::vector<double>{4096, 8192, 12288}));
-  EXPECT_EQ(*m.Column("actor_idle"), (std::vector<double>{0.25, 0.5, 0.75}));
-  EXPECT_DOUBLE_EQ((*m.Column("elapsed_s"))[2], 10.5);
-  EXPECT_TRUE(std::isnan((*m.Column("normalized_return"))[2]));
-  EXPECT_EQ(m.Column("fall_rate"), nullptr);
-  EXPECT_TRUE(m.note.empty());
-}
-
-TEST(MetricsCsv, ReadsTheLearnersHeaderAndWindowsLineEnds) {
-  std::string text = kHeader + "\r\n" + Row(1, 4096, 3.5, 8, 0.2) + Row(2, 8192, 7, 0, 0);
-  MetricsTable m = ParseMetricsCsv(text, "m.csv");
-  EXPECT_EQ(m.rows, 2u);
-  EXPECT_EQ(m.columns.size(), 25u);
-  EXPECT_EQ(m.columns.back(), "rejected");
-  EXPECT_DOUBLE_EQ((*m.Column("normalized_return"))[0], 0.2);
-  EXPECT_DOUBLE_EQ((*m.Column("rejected"))[1], 0);
-}
-
-TEST(MetricsCsv, RefusesMalformedFilesNamingFileLineAndColumn) {
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("", "runs/a/metrics.csv"); }),
-            "runs/a/metrics.csv:1: no header: the first line must name the columns "
-            "(iteration,version,samples,...)");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("1,4096,3.5\n2,8192,7\n", "runs/a/metrics.csv"); }),
-            "runs/a/metrics.csv:1: no header: the first line must name the columns "
-            "(iteration,version,samples,...), found '1' in column 1");
-  EXPECT_EQ(ErrorOf([] {
-              ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,3.5,0\n8192,7,abc\n", "m.csv");
-            }),
-            "m.csv:3: column 3 (fall_rate): 'abc' is not a number");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,,0\n", "m.csv"); }),
-            "m.csv:2: column 2 (elapsed_s): '' is not a number");
-  EXPECT_EQ(ErrorOf([] {
-              ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,3.5\n8192,7,0\n", "m.csv");
-            }),
-            "m.csv:2: 2 cells, but the header names 3 columns");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("iteration,elapsed_s\n1,3.5\n", "m.csv"); }),
-            "m.csv: no 'samples' column (the curves are drawn against samples and elapsed_s)");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s,samples\n1,2,3\n", "m.csv"); }),
-            "m.csv:1: column 'samples' appears twice in the header");
-  // Without its newline the last line may be half written: dropped, unless it has too many cells.
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s\n4096,3.5\n8192,x", "m.csv"); }), "");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s\n4096,3.5\n8192,7,1", "m.csv"); }),
-            "m.csv:3: 3 cells, but the header names 2 columns");
-}
-
-TEST(MetricsCsv, DropsALastLineCaughtHalfWritten) {
-  MetricsTable m = ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,3.5,0\n8192,7", "m.csv");
-  EXPECT_EQ(m.rows, 1u);
-  EXPECT_EQ(m.note, "m.csv:3: last line incomplete (being written?), left out");
-  // The same line with its newline is a malformed file.
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s,fall_rate\n8192,7\n", "m.csv"); }),
-            "m.csv:2: 2 cells, but the header names 3 columns");
 }
 
 TEST(WallTime, AddsUpLearnerSessions) {
@@ -239,63 +175,6 @@ TEST(CurvesSvg, PlotsAnEpisodeFigureItHasNoTitleFor) {
   EXPECT_NE(svg.find(">episode figure: root_height</text>"), std::string::npos);
 }
 
-TEST(Evaluation, ReadsEvalJsonWithAndWithoutTheCheckpoint) {
-  const std::string json = R"({
-  "checkpoint": "runs/a/checkpoints/checkpoint-000000123456.pt",
-  "episode_length": 29.5, "episodes": 20, "fall_rate": 0.05, "mean_return": 25.25,
-  "normalized_return": 0.987, "policy_version": 12,
-  "reward_terms": {"com": 0.9, "end_effector": 0.8, "root": 0.7, "rotation": 0.6, "velocity": 0.5},
-  "samples": 123456})";
-  EvaluationSummary e = ParseEvaluationJson(json, "runs/a/eval.json");
-  EXPECT_EQ(e.episodes, 20);
-  EXPECT_DOUBLE_EQ(e.normalized_return, 0.987);
-  EXPECT_DOUBLE_EQ(e.fall_rate, 0.05);
-  EXPECT_DOUBLE_EQ(e.episode_length, 29.5);
-  EXPECT_EQ(e.reward_terms, (std::vector<std::pair<std::string, double>>{{"rotation", 0.6},
-                                                                         {"velocity", 0.5},
-                                                                         {"end_effector", 0.8},
-                                                                         {"com", 0.9},
-                                                                         {"root", 0.7}}));
-  EXPECT_EQ(e.policy_version, 12);
-  EXPECT_EQ(e.samples, 123456);
-  EXPECT_EQ(e.checkpoint, "runs/a/checkpoints/checkpoint-000000123456.pt");
-  EXPECT_FALSE(e.pushes);
-
-  EvaluationSummary old = ParseEvaluationJson(
-      R"({"episode_length": 30, "episodes": 5, "fall_rate": 0, "mean_return": 1,
-          "normalized_return": 0.5, "perturbation": {"survived_90": 20.0},
-          "reward_terms": {"com": 1, "end_effector": 1, "root": 1, "rotation": 1, "velocity": 1}})",
-      "old.json");
-  EXPECT_EQ(old.policy_version, -1);
-  EXPECT_EQ(old.samples, -1);
-  EXPECT_TRUE(old.pushes);
-  EXPECT_DOUBLE_EQ(old.survived_90, 20);
-  EXPECT_TRUE(old.push_directions.empty());
-
-  EvaluationSummary pushed = ParseEvaluationJson(
-      R"({"episode_length": 30, "episodes": 5, "fall_rate": 0, "mean_return": 1,
-          "normalized_return": 0.5, "reward_terms": {"rotation": 1},
-          "perturbation": {"survived_90": 20.0, "protocol": {"mass": 60, "directions": [
-            {"direction": "forward", "survived_90": 90, "velocity_change": 1.5, "at_limit": false},
-            {"direction": "left", "survived_90": 640, "velocity_change": 10.67, "at_limit": true}
-          ]}}})",
-      "pushed.json");
-  ASSERT_EQ(pushed.push_directions.size(), 2u);
-  EXPECT_EQ(pushed.push_directions[0].direction, "forward");
-  EXPECT_DOUBLE_EQ(pushed.push_directions[0].impulse, 90);
-  EXPECT_DOUBLE_EQ(pushed.push_directions[0].velocity_change, 1.5);
-  EXPECT_TRUE(pushed.push_directions[1].at_limit);
-
-  EXPECT_EQ(ErrorOf([] {
-              ParseEvaluationJson("{\"episodes\": 3", "e.json");
-            }).rfind("e.json: not JSON (", 0),
-            0u);
-  EXPECT_EQ(ErrorOf([] {
-              ParseEvaluationJson("{\"episodes\": 3}", "e.json");
-            }).rfind("e.json: not an evaluation written by `ragdoll eval` (", 0),
-            0u);
-}
-
 TEST(Config, NamesASteeringRunsMotionSet) {
   const std::string steer =
       "environment:\n  steering:\n    motions:\n      - motion: /a/stand.json\n"
@@ -332,7 +211,7 @@ TEST(Html, IsSelfContainedAndShowsEachRun) {
   RunReport a = RunOf("a", kHeader + "\n" + Row(1, 4096, 30, 4, 0.25) +
                                Row(2, 200000, 4000, 4, 0.5) + Row(3, 250000, 4100, 0, 0));
   a.config_text = "environment:\n  motion: /x/assets/motions/stand.json\n";
-  a.evaluation = ParseEvaluationJson(
+  a.evaluation = eval::ParseEvaluationJson(
       R"({"checkpoint": "runs/a/checkpoints/checkpoint-000000123456.pt", "episode_length": 29.5,
           "episodes": 20, "fall_rate": 0.05, "mean_return": 25.25, "normalized_return": 0.987,
           "policy_version": 12, "samples": 123456, "reward_terms": {"com": 0.9,
@@ -415,4 +294,4 @@ TEST(Base64, MatchesRfc4648) {
 }
 
 }  // namespace
-}  // namespace ragdoll::cli
+}  // namespace ragdoll::report

@@ -15,10 +15,10 @@
 #include <string>
 
 #include "actor/rollout.h"
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_set.h"
-#include "cli/experiment.h"
-#include "cli/trained_policy.h"
+#include "run/experiment.h"
+#include "run/trained_policy.h"
+#include "sim/imitation_env.h"
+#include "sim/motion_set.h"
 
 namespace ragdoll {
 namespace {
@@ -84,8 +84,8 @@ void AddEpisode(const v1::EpisodeSummary& e, Digest* digest) {
 }
 
 TEST(GoldenRolloutTest, SteeringPolicyInItsEnvironment) {
-  cli::TrainedPolicy trained =
-      cli::LoadTrainedPolicy(std::string(RAGDOLL_TEST_DATA_DIR) + "/steer_policy");
+  run::TrainedPolicy trained =
+      run::LoadTrainedPolicy(std::string(RAGDOLL_TEST_DATA_DIR) + "/steer_policy");
   actor::RolloutWorker worker(trained.experiment.environment, 4, 64, 2026, "golden");
   worker.SetPolicy(trained.snapshot);
   Digest digest;
@@ -105,10 +105,10 @@ TEST(GoldenRolloutTest, SteeringPolicyInItsEnvironment) {
 }
 
 TEST(GoldenRolloutTest, WalkWithAFixedActionStream) {
-  cli::Experiment experiment =
-      cli::ReadExperiment(std::string(RAGDOLL_SOURCE_DIR) + "/configs/walk.yaml");
+  run::Experiment experiment =
+      run::ReadExperiment(std::string(RAGDOLL_SOURCE_DIR) + "/configs/walk.yaml");
   const sim::EnvConfig& config = experiment.environment;
-  auto character = sim::Character::Load(config.character, config.physics_dt());
+  auto character = character::Character::Load(config.character, config.physics_dt());
   sim::ImitationEnv env(character, sim::LoadMotionSet(config, *character), config, 17);
   std::vector<float> obs(env.spec().observation_size), action(env.spec().action_size);
   std::mt19937 rng(3);

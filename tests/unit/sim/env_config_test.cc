@@ -1,4 +1,4 @@
-#include "actor/sim/env_config.h"
+#include "sim/env_config.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

@@ -1,11 +1,11 @@
-#include "actor/sim/falls.h"
+#include "sim/falls.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <set>
 
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -15,16 +15,16 @@ const std::string kAssets = RAGDOLL_ASSETS_DIR;
 class FallsTest : public ::testing::Test {
  protected:
   FallsTest()
-      : character_(Character::Load(kAssets + "/character/humanoid.xml", 1.0 / 300)),
-        walk_(LoadMotion(kAssets + "/motions/walk.json")) {}
-  std::shared_ptr<const Character> character_;
-  MotionClip walk_;
+      : character_(character::Character::Load(kAssets + "/character/humanoid.xml", 1.0 / 300)),
+        walk_(character::LoadMotion(kAssets + "/motions/walk.json")) {}
+  std::shared_ptr<const character::Character> character_;
+  character::MotionClip walk_;
 };
 
 // The clip's own frames stand; a settled fall lies still and low, on its front, its back or a
 // side, and the same random stream gives the same fall.
 TEST_F(FallsTest, ASettledFallLiesStillOnEachSideAndTheClipStands) {
-  DataPtr d = character_->MakeData();
+  character::DataPtr d = character_->MakeData();
   character_->PoseToQpos(walk_.Sample(0.3), d->qpos);
   mj_forward(character_->model(), d.get());
   EXPECT_EQ(PostureOf(*character_, *d, 0.7), Posture::kStanding);

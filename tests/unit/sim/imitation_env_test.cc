@@ -1,4 +1,4 @@
-#include "actor/sim/imitation_env.h"
+#include "sim/imitation_env.h"
 
 #include <gtest/gtest.h>
 
@@ -6,8 +6,8 @@
 #include <cstring>
 #include <random>
 
-#include "actor/sim/ground_contacts.h"
-#include "actor/sim/motion_io.h"
+#include "character/ground_contacts.h"
+#include "character/motion_io.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -16,12 +16,13 @@ const std::string kAssets = RAGDOLL_ASSETS_DIR;
 
 // A clip that holds the model's rest pose (all joints at zero, soles on the floor), so that
 // expected values follow from the model's dimensions alone.
-std::shared_ptr<const MotionClip> RestClip(bool loop, double duration) {
-  Pose rest;
+std::shared_ptr<const character::MotionClip> RestClip(bool loop, double duration) {
+  character::Pose rest;
   rest.root_position = {0, 0, 0.8814};
-  rest.joint_rotations.assign(12, kIdentityQuat);
-  return std::make_shared<const MotionClip>("rest", loop, std::vector<double>{duration, duration},
-                                            std::vector<Pose>{rest, rest});
+  rest.joint_rotations.assign(12, character::kIdentityQuat);
+  return std::make_shared<const character::MotionClip>("rest", loop,
+                                                       std::vector<double>{duration, duration},
+                                                       std::vector<character::Pose>{rest, rest});
 }
 
 class ImitationEnvTest : public ::testing::Test {
@@ -30,12 +31,13 @@ class ImitationEnvTest : public ::testing::Test {
     config_.character = kAssets + "/character/humanoid.xml";
     config_.motion = kAssets + "/motions/walk.json";
   }
-  std::unique_ptr<ImitationEnv> Make(std::shared_ptr<const MotionClip> clip, uint64_t seed = 1) {
-    auto character = Character::Load(config_.character, config_.physics_dt());
+  std::unique_ptr<ImitationEnv> Make(std::shared_ptr<const character::MotionClip> clip,
+                                     uint64_t seed = 1) {
+    auto character = character::Character::Load(config_.character, config_.physics_dt());
     return std::make_unique<ImitationEnv>(character, clip, config_, seed);
   }
-  std::shared_ptr<const MotionClip> Walk() {
-    return std::make_shared<const MotionClip>(LoadMotion(config_.motion));
+  std::shared_ptr<const character::MotionClip> Walk() {
+    return std::make_shared<const character::MotionClip>(character::LoadMotion(config_.motion));
   }
   EnvConfig config_;
 };
@@ -139,7 +141,7 @@ TEST_F(ImitationEnvTest, RagdollDroppedOnItsBackTerminates) {
   std::vector<double> qpos(env->data().qpos, env->data().qpos + m->nq);
   std::vector<double> qvel(m->nv, 0.0);
   // Lying face up: turned -90 degrees about y, so the body's +x (its front) points up.
-  Quat on_back = AxisAngle({0, 1, 0}, -M_PI / 2);
+  character::Quat on_back = character::AxisAngle({0, 1, 0}, -M_PI / 2);
   qpos[2] = 0.2;
   std::copy(on_back.begin(), on_back.end(), qpos.begin() + 3);
   env->SetState(qpos.data(), qvel.data());
@@ -193,7 +195,8 @@ TEST_F(ImitationEnvTest, ReferenceFollowsTheCharacterAtEachNewCycle) {
     std::vector<double> qpos(env->data().qpos, env->data().qpos + m->nq);
     std::vector<double> qvel(m->nv, 0.0), ref_qpos(m->nq), ref_qvel(m->nv);
     qpos[0] += 0.3;
-    Quat turned = Multiply(AxisAngle({0, 0, 1}, 0.2), Quat{qpos[3], qpos[4], qpos[5], qpos[6]});
+    character::Quat turned = character::Multiply(
+        character::AxisAngle({0, 0, 1}, 0.2), character::Quat{qpos[3], qpos[4], qpos[5], qpos[6]});
     std::copy(turned.begin(), turned.end(), qpos.begin() + 3);
     env->SetState(qpos.data(), qvel.data());
     double root_before = 0;
@@ -297,7 +300,7 @@ TEST_F(ImitationEnvTest, ActionsMapOntoJointRanges) {
   std::fill(action.begin(), action.end(), 0.0f);
   action[9] = 1;  // right knee
   offset_env->Step(action.data(), obs.data());
-  const ActuatedHinge& knee = hinges[9];
+  const character::ActuatedHinge& knee = hinges[9];
   ASSERT_EQ(knee.name, "right_knee");
   EXPECT_NEAR(offset_env->data().ctrl[0], ref_qpos[hinges[0].qpos_address], 1e-12);
   EXPECT_NEAR(
@@ -345,42 +348,44 @@ TEST_F(ImitationEnvTest, RejectsNamesTheCharacterLacks) {
 // asin((arm - thigh) / trunk) = asin((0.574 - 0.47) / 0.48) = 0.22 rad so that hands and knees
 // both reach the floor, thighs and arms vertical, knees bent past 90 degrees so that the shins
 // rise behind and the feet stay in the air. Placed with its lowest point on the floor.
-std::shared_ptr<const MotionClip> CrawlClip(const Character& character) {
-  std::vector<Pose> frames;
+std::shared_ptr<const character::MotionClip> CrawlClip(const character::Character& character) {
+  std::vector<character::Pose> frames;
   for (double rock : {0.0, 0.12, 0.0, -0.12, 0.0}) {
-    Pose p;
+    character::Pose p;
     const double pitch = M_PI / 2 - 0.22;
-    p.root_rotation = AxisAngle({0, 1, 0}, pitch);
-    p.joint_rotations.assign(12, kIdentityQuat);
-    for (int hip : {2, 7}) p.joint_rotations[hip] = AxisAngle({0, 1, 0}, -pitch + rock);
-    for (int knee : {3, 8}) p.joint_rotations[knee] = AxisAngle({0, 1, 0}, 2.0);
-    for (int shoulder : {5, 10}) p.joint_rotations[shoulder] = AxisAngle({0, 1, 0}, -pitch - rock);
-    p.joint_rotations[1] = AxisAngle({0, 1, 0}, -0.6);  // head up, looking ahead
+    p.root_rotation = character::AxisAngle({0, 1, 0}, pitch);
+    p.joint_rotations.assign(12, character::kIdentityQuat);
+    for (int hip : {2, 7}) p.joint_rotations[hip] = character::AxisAngle({0, 1, 0}, -pitch + rock);
+    for (int knee : {3, 8}) p.joint_rotations[knee] = character::AxisAngle({0, 1, 0}, 2.0);
+    for (int shoulder : {5, 10})
+      p.joint_rotations[shoulder] = character::AxisAngle({0, 1, 0}, -pitch - rock);
+    p.joint_rotations[1] = character::AxisAngle({0, 1, 0}, -0.6);  // head up, looking ahead
     p.root_position = {0, 0, 0};
     p.root_position[2] = -character.LowestPoint(p);
     frames.push_back(p);
   }
-  return std::make_shared<const MotionClip>("crawl", true, std::vector<double>(5, 0.5), frames);
+  return std::make_shared<const character::MotionClip>("crawl", true, std::vector<double>(5, 0.5),
+                                                       frames);
 }
 
 TEST_F(ImitationEnvTest, AutoContactsAreTheBodiesTheClipPutsOnTheFloor) {
-  auto character = Character::Load(config_.character, config_.physics_dt());
+  auto character = character::Character::Load(config_.character, config_.physics_dt());
   auto crawl = CrawlClip(*character);
   // Hands and knees from the clip; the feet, in the air here, are always allowed.
-  EXPECT_EQ(ClipGroundContacts(*crawl, *character),
+  EXPECT_EQ(character::ClipGroundContacts(*crawl, *character),
             (std::vector<std::string>{"right_knee", "right_ankle", "right_wrist", "left_knee",
                                       "left_ankle", "left_wrist"}));
-  const auto contacts = GroundContactFractions(*crawl, *character);
+  const auto contacts = character::GroundContactFractions(*crawl, *character);
   ASSERT_EQ(contacts.size(), 4u);
   EXPECT_EQ(contacts[0].first, "right_knee");
   EXPECT_EQ(contacts[0].second, 1.0);  // every frame
   // The walk puts only its feet down.
-  EXPECT_EQ(ClipGroundContacts(*Walk(), *character),
+  EXPECT_EQ(character::ClipGroundContacts(*Walk(), *character),
             (std::vector<std::string>{"right_ankle", "left_ankle"}));
 }
 
 TEST_F(ImitationEnvTest, CrawlRunsUnderAutoContactsAndEndsAtOnceWithFeetOnly) {
-  auto character = Character::Load(config_.character, config_.physics_dt());
+  auto character = character::Character::Load(config_.character, config_.physics_dt());
   auto crawl = CrawlClip(*character);
   config_.action_mode = ActionMode::kOffset;
   config_.max_episode_steps = 150;
@@ -410,7 +415,7 @@ TEST_F(ImitationEnvTest, CrawlRunsUnderAutoContactsAndEndsAtOnceWithFeetOnly) {
 }
 
 TEST_F(ImitationEnvTest, CrawlStillEndsWhenTheHeadHitsTheFloor) {
-  auto character = Character::Load(config_.character, config_.physics_dt());
+  auto character = character::Character::Load(config_.character, config_.physics_dt());
   auto crawl = CrawlClip(*character);
   config_.action_mode = ActionMode::kAbsolute;
   config_.random_start = false;

@@ -1,4 +1,4 @@
-#include "actor/sim/imitation_reward.h"
+#include "sim/imitation_reward.h"
 
 #include <gtest/gtest.h>
 
@@ -15,13 +15,13 @@ const std::vector<int> kHingeJoint = {0, 1, 1, 1, 2, 3};
 
 PoseFeatures Reference() {
   PoseFeatures f;
-  f.joint_rotations = {AxisAngle({1, 0, 0}, 0.2), AxisAngle({0, 1, 0}, -0.4),
-                       AxisAngle({0, 0.6, 0.8}, 1.0), kIdentityQuat};
+  f.joint_rotations = {character::AxisAngle({1, 0, 0}, 0.2), character::AxisAngle({0, 1, 0}, -0.4),
+                       character::AxisAngle({0, 0.6, 0.8}, 1.0), character::kIdentityQuat};
   f.joint_velocities = {0.5, -1, 2, 0, 1.5, -0.3};
   f.end_effectors = {{0.2, -0.3, -0.9}, {0.2, 0.3, -0.9}, {0, -0.4, 0.1}, {0, 0.4, 0.1}};
   f.com = {0.1, 0.02, 0.85};
   f.root_position = {0.1, 0, 0.9};
-  f.root_rotation = AxisAngle({0, 0, 1}, 0.7);
+  f.root_rotation = character::AxisAngle({0, 0, 1}, 0.7);
   f.root_linear_velocity = {1.2, 0.1, 0};
   f.root_angular_velocity = {0, 0.2, 0.5};
   return f;
@@ -57,7 +57,7 @@ TEST(ImitationReward, QAndMinusQAreTheSamePose) {
   RewardConfig config;
   PoseFeatures ref = Reference();
   PoseFeatures sim = ref;
-  for (Quat& q : sim.joint_rotations) q = {-q[0], -q[1], -q[2], -q[3]};
+  for (character::Quat& q : sim.joint_rotations) q = {-q[0], -q[1], -q[2], -q[3]};
   sim.root_rotation = {-ref.root_rotation[0], -ref.root_rotation[1], -ref.root_rotation[2],
                        -ref.root_rotation[3]};
   RewardErrors e = ImitationErrors(config, kJointWeights, kHingeJoint, sim, ref);
@@ -70,7 +70,8 @@ TEST(ImitationReward, OneJointRotatedBy0Point3Rad) {
   PoseFeatures ref = Reference();
   PoseFeatures sim = ref;
   // Joint 2 (weight 3 of 10) turned a further 0.3 rad about an oblique axis.
-  sim.joint_rotations[2] = Multiply(ref.joint_rotations[2], AxisAngle({0.6, 0, 0.8}, 0.3));
+  sim.joint_rotations[2] =
+      character::Multiply(ref.joint_rotations[2], character::AxisAngle({0.6, 0, 0.8}, 0.3));
   RewardErrors e = ImitationErrors(config, kJointWeights, kHingeJoint, sim, ref);
   // 0.3 * 0.3^2 = 0.027
   EXPECT_NEAR(e.rotation, 0.027, 1e-12);
@@ -140,10 +141,11 @@ TEST(ImitationReward, RootErrorMixesPositionRotationAndVelocities) {
   RewardConfig config;
   PoseFeatures ref = Reference();
   PoseFeatures sim = ref;
-  sim.root_position[2] += 0.1;                                                 // 0.01 m^2
-  sim.root_rotation = Multiply(ref.root_rotation, AxisAngle({0, 0, 1}, 0.2));  // 0.04 rad^2
-  sim.root_linear_velocity[0] += 1;                                            // 1 (m/s)^2
-  sim.root_angular_velocity[1] += 2;                                           // 4 (rad/s)^2
+  sim.root_position[2] += 0.1;  // 0.01 m^2
+  sim.root_rotation =
+      character::Multiply(ref.root_rotation, character::AxisAngle({0, 0, 1}, 0.2));  // 0.04 rad^2
+  sim.root_linear_velocity[0] += 1;                                                  // 1 (m/s)^2
+  sim.root_angular_velocity[1] += 2;                                                 // 4 (rad/s)^2
   RewardErrors e = ImitationErrors(config, kJointWeights, kHingeJoint, sim, ref);
   // 0.01 + 0.1 * 0.04 + 0.01 * 1 + 0.001 * 4 = 0.01 + 0.004 + 0.01 + 0.004 = 0.028
   EXPECT_NEAR(e.root, 0.028, 1e-12);
@@ -161,13 +163,14 @@ TEST(ImitationReward, AllTermsTogether) {
   RewardConfig config;
   PoseFeatures ref = Reference();
   PoseFeatures sim = ref;
-  sim.joint_rotations[2] = Multiply(ref.joint_rotations[2], AxisAngle({0.6, 0, 0.8}, 0.3));
+  sim.joint_rotations[2] =
+      character::Multiply(ref.joint_rotations[2], character::AxisAngle({0.6, 0, 0.8}, 0.3));
   sim.joint_velocities[3] += 2;
   sim.end_effectors[2][1] += 0.1;
   sim.com[0] += 0.03;
   sim.com[1] -= 0.04;
   sim.root_position[2] += 0.1;
-  sim.root_rotation = Multiply(ref.root_rotation, AxisAngle({0, 0, 1}, 0.2));
+  sim.root_rotation = character::Multiply(ref.root_rotation, character::AxisAngle({0, 0, 1}, 0.2));
   sim.root_linear_velocity[0] += 1;
   sim.root_angular_velocity[1] += 2;
   RewardTerms t =
@@ -193,7 +196,7 @@ TEST(ImitationReward, JointsWithoutWeightAreIgnored) {
   RewardConfig config;
   PoseFeatures ref = Reference();
   PoseFeatures sim = ref;
-  sim.joint_rotations[0] = AxisAngle({1, 0, 0}, 2.0);
+  sim.joint_rotations[0] = character::AxisAngle({1, 0, 0}, 2.0);
   sim.joint_velocities[0] += 5;
   // Only joint 0 is off, and it weighs nothing; joints 1..3 weigh 1/3 each.
   std::vector<double> weights = {0, 1, 1, 1};
@@ -201,7 +204,7 @@ TEST(ImitationReward, JointsWithoutWeightAreIgnored) {
   EXPECT_NEAR(e.rotation, 0, 1e-20);
   EXPECT_EQ(e.velocity, 0);
   // Joint 3 off by 0.6 rad: (1/3) * 0.36 = 0.12.
-  sim.joint_rotations[3] = AxisAngle({0, 0, 1}, 0.6);
+  sim.joint_rotations[3] = character::AxisAngle({0, 0, 1}, 0.6);
   EXPECT_NEAR(ImitationErrors(config, weights, kHingeJoint, sim, ref).rotation, 0.12, 1e-12);
 }
 

@@ -1,4 +1,4 @@
-#include "actor/sim/perturbations.h"
+#include "sim/perturbations.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -6,10 +6,10 @@
 #include <cmath>
 #include <vector>
 
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_io.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
-#include "tests/unit/turned_clip.h"
+#include "sim/imitation_env.h"
+#include "tests/unit/sim/turned_clip.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -22,7 +22,7 @@ constexpr double kDt = 1.0 / 30;
 class PerturbationsTest : public ::testing::Test {
  protected:
   PerturbationsTest()
-      : character_(Character::Load(kAssets + "/character/humanoid.xml", kDt / 10)),
+      : character_(character::Character::Load(kAssets + "/character/humanoid.xml", kDt / 10)),
         data_(character_->MakeData()) {
     config_.bodies = {"chest"};
     config_.interval_min = config_.interval_max = 1.0;  // 30 steps
@@ -55,8 +55,8 @@ class PerturbationsTest : public ::testing::Test {
     const double a = std::remainder(angle, 2 * M_PI);
     return static_cast<int>(std::lround(a / (M_PI / 2)) + 4) % 4;
   }
-  std::shared_ptr<const Character> character_;
-  DataPtr data_;
+  std::shared_ptr<const character::Character> character_;
+  character::DataPtr data_;
   PerturbationConfig config_;
 };
 
@@ -174,7 +174,8 @@ TEST_F(PerturbationsTest, AnUnknownBodyIsNamed) {
 // pushed hard on the chest.
 TEST_F(PerturbationsTest, AnEnvironmentWithPushesStartsItsEpisodesAsBeforeAndFallsSooner) {
   EnvConfig env = Env();
-  auto clip = std::make_shared<const MotionClip>(LoadMotion(kAssets + "/motions/stand.json"));
+  auto clip = std::make_shared<const character::MotionClip>(
+      character::LoadMotion(kAssets + "/motions/stand.json"));
   ImitationEnv plain(character_, clip, env, 5);
   config_.start = config_.max = 150;
   env.perturbations = config_;
@@ -213,8 +214,8 @@ TEST_F(PerturbationsTest, TheEnvironmentPlacesEachPushByTheCharactersHeadingAndC
   for (const std::string name : {"stand", "walk"}) {
     SCOPED_TRACE(name);
     const bool still = name == "stand";
-    auto clip = std::make_shared<const MotionClip>(
-        TurnedClip(LoadMotion(kAssets + "/motions/" + name + ".json"), 1.0, name));
+    auto clip = std::make_shared<const character::MotionClip>(
+        TurnedClip(character::LoadMotion(kAssets + "/motions/" + name + ".json"), 1.0, name));
     ImitationEnv e(character_, clip, env, 3);
     const Perturbations& p = *e.perturbations();
     auto shares = [&] {

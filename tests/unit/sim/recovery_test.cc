@@ -1,7 +1,7 @@
 // Falling and getting up (EnvConfig::recovery, RecoveryTask): the config, the motion set with the
 // get-up clips, a fall seen in the state switching the reference, the reward while getting up,
 // the hand-back to the walk, and the episodes that start fallen or part-way up.
-#include "actor/sim/recovery_task.h"
+#include "sim/recovery_task.h"
 
 #include <gtest/gtest.h>
 
@@ -10,13 +10,13 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "actor/sim/falls.h"
-#include "actor/sim/ground_contacts.h"
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_io.h"
-#include "actor/sim/observation.h"
-#include "actor/sim/steering_task.h"
+#include "character/ground_contacts.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
+#include "sim/falls.h"
+#include "sim/imitation_env.h"
+#include "sim/observation.h"
+#include "sim/steering_task.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -91,7 +91,7 @@ class RecoveryEnvTest : public ::testing::Test {
     config_.recovery.start_fallen = 0;
     config_.recovery.start_getting_up = 0;
     config_.recovery.early_termination = false;  // the tests of it turn it on
-    character_ = Character::Load(config_.character, config_.physics_dt());
+    character_ = character::Character::Load(config_.character, config_.physics_dt());
   }
   std::unique_ptr<ImitationEnv> Make(uint64_t seed = 1) {
     return std::make_unique<ImitationEnv>(character_, LoadMotionSet(config_, *character_), config_,
@@ -126,7 +126,7 @@ class RecoveryEnvTest : public ::testing::Test {
     return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
   }
   EnvConfig config_;
-  std::shared_ptr<const Character> character_;
+  std::shared_ptr<const character::Character> character_;
 };
 
 // The get-up clips follow the base clip in the set; no command names them and their contacts
@@ -177,9 +177,10 @@ TEST_F(RecoveryEnvTest, AFallSwitchesToTheGetUpForHowTheCharacterLies) {
   env->ReferenceState(env->time(), qpos.data(), qvel.data());
   const double* q = env->data().qpos;
   EXPECT_LT(std::hypot(qpos[0] - q[0], qpos[1] - q[1]), 1e-9);
-  EXPECT_LT(std::abs(WrapAngle(BodyYawOf({qpos[3], qpos[4], qpos[5], qpos[6]}) -
-                               BodyYawOf({q[3], q[4], q[5], q[6]}))),
-            1e-9);
+  EXPECT_LT(
+      std::abs(character::WrapAngle(character::BodyYawOf({qpos[3], qpos[4], qpos[5], qpos[6]}) -
+                                    character::BodyYawOf({q[3], q[4], q[5], q[6]}))),
+      1e-9);
 
   // Held lying through the whole clip, it is sent through the get-up again: still one fall.
   for (int s = 0; s < 150; ++s) {
@@ -239,8 +240,8 @@ TEST_F(RecoveryEnvTest, EarlyTerminationExcusesWhatAFallLiesOn) {
   for (const std::string& body : GroundContacts(set, *character_)) {
     may_touch[mj_name2id(character_->model(), mjOBJ_BODY, body.c_str())] = 1;
   }
-  for (const auto& [body, share] :
-       GroundContactFractions(*set.entry(set.Find("get_up_face_down")).clip, *character_, 0.02)) {
+  for (const auto& [body, share] : character::GroundContactFractions(
+           *set.entry(set.Find("get_up_face_down")).clip, *character_, 0.02)) {
     may_touch[mj_name2id(character_->model(), mjOBJ_BODY, body.c_str())] = 1;
   }
   std::mt19937_64 rng(7);
@@ -254,7 +255,7 @@ TEST_F(RecoveryEnvTest, EarlyTerminationExcusesWhatAFallLiesOn) {
     const FallenState& fallen = falls[t];
     env->Reset(obs.data());
     env->SetState(fallen.qpos.data(), fallen.qvel.data());
-    EXPECT_TRUE(TouchesGroundOutside(character_->model(), env->data(), may_touch));
+    EXPECT_TRUE(character::TouchesGroundOutside(character_->model(), env->data(), may_touch));
     for (int n = 0; n < 15; ++n) {  // the step that sees the fall, then 0.47 s
       env->SetState(fallen.qpos.data(), fallen.qvel.data());
       ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated) << "fall " << t;
@@ -419,23 +420,24 @@ TEST_F(RecoveryEnvTest, SteeringTakesUpFromWhereTheGetUpEnds) {
   for (int steps = 0; Recovery(*env).recovering() && steps < 200; ++steps) {
     env->ReferenceState(env->time(), qpos.data(), qvel.data());
     // The get-up played turned a quarter to the left, as a fall leaves a character anywhere.
-    const Quat yaw = AxisAngle({0, 0, 1}, M_PI / 2);
-    const Vec3 p = Rotate(yaw, {qpos[0], qpos[1], qpos[2]});
-    const Quat r = Multiply(yaw, {qpos[3], qpos[4], qpos[5], qpos[6]});
+    const character::Quat yaw = character::AxisAngle({0, 0, 1}, M_PI / 2);
+    const character::Vec3 p = character::Rotate(yaw, {qpos[0], qpos[1], qpos[2]});
+    const character::Quat r = character::Multiply(yaw, {qpos[3], qpos[4], qpos[5], qpos[6]});
     std::copy(p.begin(), p.end(), qpos.begin());
     std::copy(r.begin(), r.end(), qpos.begin() + 3);
     env->SetState(qpos.data(), qvel.data());
     ASSERT_FALSE(env->Step(action.data(), obs.data()).terminated);
   }
   ASSERT_FALSE(Recovery(*env).recovering());
-  EXPECT_GT(std::abs(WrapAngle(env->heading() - heading_before)), 1.0);
+  EXPECT_GT(std::abs(character::WrapAngle(env->heading() - heading_before)), 1.0);
   EXPECT_NEAR(Steering(*env).desired_heading(), env->heading(), 1e-9);
   EXPECT_NEAR(Steering(*env).HeadingError(*env), 0.0, 1e-9);
   env->ReferenceState(env->time(), qpos.data(), qvel.data());
-  const Quat reference = {qpos[3], qpos[4], qpos[5], qpos[6]};
-  const Quat character = {env->data().qpos[3], env->data().qpos[4], env->data().qpos[5],
-                          env->data().qpos[6]};
-  EXPECT_NEAR(WrapAngle(YawOf(reference) - YawOf(character)), 0.0, 0.15);
+  const character::Quat reference = {qpos[3], qpos[4], qpos[5], qpos[6]};
+  const character::Quat character = {env->data().qpos[3], env->data().qpos[4], env->data().qpos[5],
+                                     env->data().qpos[6]};
+  EXPECT_NEAR(character::WrapAngle(character::YawOf(reference) - character::YawOf(character)), 0.0,
+              0.15);
 }
 
 // A get-up ends standing: told to walk, it hands back through the set's stand-to-walk transition

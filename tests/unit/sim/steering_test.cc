@@ -8,14 +8,14 @@
 #include <functional>
 #include <random>
 
-#include "actor/sim/env_config.h"
-#include "actor/sim/imitation_env.h"
-#include "actor/sim/motion_io.h"
-#include "actor/sim/motion_set.h"
-#include "actor/sim/observation.h"
-#include "actor/sim/steering_task.h"
+#include "character/motion_io.h"
 #include "common/config_section.h"
-#include "tests/unit/turned_clip.h"
+#include "sim/env_config.h"
+#include "sim/imitation_env.h"
+#include "sim/motion_set.h"
+#include "sim/observation.h"
+#include "sim/steering_task.h"
+#include "tests/unit/sim/turned_clip.h"
 
 namespace ragdoll::sim {
 namespace {
@@ -40,49 +40,49 @@ const std::string kStand = kAssets + "/motions/stand.json";
 const std::string kWalk = kAssets + "/motions/walk.json";
 
 // A clip of `frames` poses of stand.json that does not loop: a stand-to-stand "transition".
-std::shared_ptr<const MotionClip> StandTransition() {
-  MotionClip stand = LoadMotion(kStand);
-  std::vector<Pose> frames;
+std::shared_ptr<const character::MotionClip> StandTransition() {
+  character::MotionClip stand = character::LoadMotion(kStand);
+  std::vector<character::Pose> frames;
   std::vector<double> durations;
   for (int f = 0; f < 30; ++f) {
     frames.push_back(stand.frame(f % stand.num_frames()));
     durations.push_back(1.0 / 30);
   }
-  return std::make_shared<const MotionClip>("start", false, durations, frames);
+  return std::make_shared<const character::MotionClip>("start", false, durations, frames);
 }
 
 TEST(MotionSetTest, CommandsAreMeasuredFromTheClips) {
-  Command walk = MeasureCommand(LoadMotion(kWalk));
+  Command walk = MeasureCommand(character::LoadMotion(kWalk));
   EXPECT_NEAR(walk.forward, 0.9, 1e-6);  // 0.9 m strides at one per second
   EXPECT_NEAR(walk.left, 0.0, 1e-9);
   EXPECT_NEAR(walk.turn, 0.0, 1e-9);
-  Command stand = MeasureCommand(LoadMotion(kStand));
+  Command stand = MeasureCommand(character::LoadMotion(kStand));
   EXPECT_NEAR(std::hypot(stand.forward, stand.left), 0.0, 1e-9);
 
   // The walk turned by 90 degrees: it walks to the world's +y but still forward in its own frame.
-  MotionClip straight = LoadMotion(kWalk);
+  character::MotionClip straight = character::LoadMotion(kWalk);
   Command turned = MeasureCommand(TurnedClip(straight, M_PI / 2, "turned"));
   EXPECT_NEAR(turned.forward, 0.9, 1e-6);
   EXPECT_NEAR(turned.left, 0.0, 1e-6);
 
   // A root turning at a steady rate in place: 90 degrees in one second.
-  std::vector<Pose> turning;
+  std::vector<character::Pose> turning;
   for (int f = 0; f <= 30; ++f) {
-    Pose p = straight.frame(0);
+    character::Pose p = straight.frame(0);
     p.root_position = {0, 0, p.root_position[2]};
-    p.root_rotation = AxisAngle({0, 0, 1}, M_PI / 2 * f / 30);
+    p.root_rotation = character::AxisAngle({0, 0, 1}, M_PI / 2 * f / 30);
     turning.push_back(p);
   }
-  Command turn =
-      MeasureCommand(MotionClip("turn", false, std::vector<double>(31, 1.0 / 30), turning));
+  Command turn = MeasureCommand(
+      character::MotionClip("turn", false, std::vector<double>(31, 1.0 / 30), turning));
   EXPECT_NEAR(turn.turn, M_PI / 2, 1e-9);
   EXPECT_NEAR(turn.forward, 0.0, 1e-12);
 }
 
 TEST(MotionSetTest, MirrorSwapsSidesAndReflectsTheSagittalPlane) {
-  auto character = Character::Load(kAssets + "/character/humanoid.xml");
-  MotionClip walk = LoadMotion(kWalk);
-  MotionClip mirrored = Mirror(walk, *character, "walk_mirrored");
+  auto character = character::Character::Load(kAssets + "/character/humanoid.xml");
+  character::MotionClip walk = character::LoadMotion(kWalk);
+  character::MotionClip mirrored = Mirror(walk, *character, "walk_mirrored");
   EXPECT_EQ(mirrored.name(), "walk_mirrored");
   ASSERT_EQ(mirrored.num_frames(), walk.num_frames());
   const auto& joints = character->joints();
@@ -94,10 +94,10 @@ TEST(MotionSetTest, MirrorSwapsSidesAndReflectsTheSagittalPlane) {
   };
   const int right_hip = index("right_hip"), left_hip = index("left_hip"), chest = index("chest");
   for (int f = 0; f < walk.num_frames(); f += 7) {
-    const Pose &a = walk.frame(f), &b = mirrored.frame(f);
+    const character::Pose &a = walk.frame(f), &b = mirrored.frame(f);
     EXPECT_DOUBLE_EQ(b.root_position[1], -a.root_position[1]);
-    const Quat& l = a.joint_rotations[left_hip];
-    const Quat& r = b.joint_rotations[right_hip];
+    const character::Quat& l = a.joint_rotations[left_hip];
+    const character::Quat& r = b.joint_rotations[right_hip];
     EXPECT_DOUBLE_EQ(r[0], l[0]);
     EXPECT_DOUBLE_EQ(r[1], -l[1]);
     EXPECT_DOUBLE_EQ(r[2], l[2]);
@@ -106,10 +106,11 @@ TEST(MotionSetTest, MirrorSwapsSidesAndReflectsTheSagittalPlane) {
     EXPECT_DOUBLE_EQ(b.joint_rotations[chest][3], -a.joint_rotations[chest][3]);
   }
   // Twice is the original.
-  MotionClip twice = Mirror(mirrored, *character, "walk");
+  character::MotionClip twice = Mirror(mirrored, *character, "walk");
   for (int f = 0; f < walk.num_frames(); ++f) {
     for (size_t j = 0; j < joints.size(); ++j) {
-      EXPECT_LT(AngleBetween(twice.frame(f).joint_rotations[j], walk.frame(f).joint_rotations[j]),
+      EXPECT_LT(character::AngleBetween(twice.frame(f).joint_rotations[j],
+                                        walk.frame(f).joint_rotations[j]),
                 1e-12);
     }
   }
@@ -232,14 +233,14 @@ class SteeringEnvTest : public ::testing::Test {
       config_.steering.motions.push_back(item);
     }
     config_.motion = kStand;
-    character_ = Character::Load(config_.character, config_.physics_dt());
+    character_ = character::Character::Load(config_.character, config_.physics_dt());
   }
   std::unique_ptr<ImitationEnv> Make(uint64_t seed = 1) {
     return std::make_unique<ImitationEnv>(character_, LoadMotionSet(config_, *character_), config_,
                                           seed);
   }
   EnvConfig config_;
-  std::shared_ptr<const Character> character_;
+  std::shared_ptr<const character::Character> character_;
 };
 
 TEST_F(SteeringEnvTest, ObservationCarriesTheCommand) {
@@ -277,7 +278,7 @@ TEST_F(SteeringEnvTest, TaskRewardTracksTheAveragedTravelVelocityAndHeading) {
   env->Reset(obs.data());
   const mjModel* m = character_->model();
   auto com = [&] {
-    Vec3 c = {0, 0, 0};
+    character::Vec3 c = {0, 0, 0};
     for (int b : character_->bodies()) {
       for (int k = 0; k < 3; ++k) c[k] += m->body_mass[b] * env->data().xipos[3 * b + k];
     }
@@ -285,15 +286,15 @@ TEST_F(SteeringEnvTest, TaskRewardTracksTheAveragedTravelVelocityAndHeading) {
     return c;
   };
   const int window = 15;  // 0.5 s at 30 Hz
-  std::vector<Vec3> history = {com()};
+  std::vector<character::Vec3> history = {com()};
   for (int step = 0; step < 20; ++step) {
     StepResult r = env->Step(action.data(), obs.data());
     ASSERT_FALSE(r.terminated) << step;
     history.push_back(com());
     if (step + 1 < window) continue;
-    const Vec3& now = history.back();
-    const Vec3& then = history[history.size() - 1 - window];
-    const Vec3 v = Steering(*env).TravelVelocity();
+    const character::Vec3& now = history.back();
+    const character::Vec3& then = history[history.size() - 1 - window];
+    const character::Vec3 v = Steering(*env).TravelVelocity();
     EXPECT_NEAR(v[0], (now[0] - then[0]) / 0.5, 1e-9);
     EXPECT_NEAR(v[1], (now[1] - then[1]) / 0.5, 1e-9);
     const double h = Steering(*env).desired_heading();
@@ -396,7 +397,7 @@ TEST_F(SteeringEnvTest, PhaseMatchingPicksTheClosestKeyFrame) {
   Steering(*env).SetCommand(*env, 0);
   EXPECT_EQ(env->reference_entry(), 0);
   Steering(*env).SetCommand(*env, 1);
-  const MotionClip& walk = env->clip();
+  const character::MotionClip& walk = env->clip();
   EXPECT_NEAR(env->time(),
               walk.frame_time(static_cast<int>(std::lround(time / walk.frame_duration(0)))), 1e-9);
   // The reference is placed on the character, facing the desired heading.
@@ -487,8 +488,8 @@ TEST_F(SteeringEnvTest, ACommandGivenDuringACatchStepWaitsForItsEnd) {
 TEST_F(SteeringEnvTest, TransitionsPlayThenHandOver) {
   auto character = character_;
   std::vector<MotionSetEntry> entries;
-  auto stand = std::make_shared<const MotionClip>(LoadMotion(kStand));
-  auto walk = std::make_shared<const MotionClip>(LoadMotion(kWalk));
+  auto stand = std::make_shared<const character::MotionClip>(character::LoadMotion(kStand));
+  auto walk = std::make_shared<const character::MotionClip>(character::LoadMotion(kWalk));
   entries.push_back({"stand", stand, MeasureCommand(*stand)});
   entries.push_back({"walk", walk, MeasureCommand(*walk)});
   entries.push_back({"start", StandTransition(), MeasureCommand(*walk), 0, 1});
@@ -579,7 +580,9 @@ TEST_F(SteeringEnvTest, CommandsAreRefusedWithoutSteeringAndOutsideTheSet) {
   plain.character = config_.character;
   plain.motion = kWalk;
   plain.substeps = 10;
-  ImitationEnv single(character_, std::make_shared<const MotionClip>(LoadMotion(kWalk)), plain, 1);
+  ImitationEnv single(character_,
+                      std::make_shared<const character::MotionClip>(character::LoadMotion(kWalk)),
+                      plain, 1);
   EXPECT_EQ(single.task().name(), "");
   EXPECT_EQ(single.spec().observation_size, ObservationSize(*character_));
   EXPECT_THROW(Steering(single), std::logic_error);
