@@ -50,7 +50,7 @@
 #include "common/process.h"
 #include "common/wire.h"
 #include "learner/learner.h"
-#include "report/report.h"
+#include "learner/metrics_csv.h"
 #include "run/experiment.h"
 
 namespace {
