@@ -164,10 +164,6 @@ std::map<std::string, Vec3> CharacterRest(const Character& character) {
   return rest;
 }
 
-[[noreturn]] void Fail(const SkeletonAnimation& source, const std::string& message) {
-  throw ConfigError(source.origin + ": " + message);
-}
-
 // The source skeleton as the character sees it: which source joint drives each part (after
 // mirroring, a left part reads the right joint) and the axes that take the source's coordinates
 // to the character's (x forward, y left, z up), found from its rest pose.
@@ -211,8 +207,9 @@ class SourceOnCharacter {
   void MapJoints(const JointMapping& mapping, std::vector<std::string>* warnings) {
     auto root = mapping.joints.find("root");
     if (root == mapping.joints.end() || source_.Find(root->second) < 0) {
-      Fail(source_, "joint '" + (root == mapping.joints.end() ? std::string() : root->second) +
-                        "' (mapped to root in " + mapping.origin + ") is not in the file");
+      ThrowConfigError(source_.origin,
+                       "joint '" + (root == mapping.joints.end() ? std::string() : root->second) +
+                           "' (mapped to root in " + mapping.origin + ") is not in the file");
     }
     for (const auto& [part, name] : mapping.joints) {
       int j = source_.Find(name);
@@ -226,7 +223,7 @@ class SourceOnCharacter {
       }
       joint_[mirror_ ? Swapped(part) : part] = j;
     }
-    if (!has("root")) Fail(source_, "the mapping does not name the root joint");
+    if (!has("root")) ThrowConfigError(source_.origin, "the mapping does not name the root joint");
   }
 
   // Up from the root to the top of the spine, left from the right hip (or shoulder) to the left.
@@ -238,7 +235,8 @@ class SourceOnCharacter {
         if (Norm(up_raw) > 0) break;
       }
     }
-    if (!(Norm(up_raw) > 0)) Fail(source_, "cannot find the up direction: map chest, neck or head");
+    if (!(Norm(up_raw) > 0))
+      ThrowConfigError(source_.origin, "cannot find the up direction: map chest, neck or head");
     Vec3 left_raw = {0, 0, 0};
     if (has("left_hip") && has("right_hip")) {
       left_raw = Sub(rest_position_[joint("left_hip")], rest_position_[joint("right_hip")]);
@@ -250,7 +248,8 @@ class SourceOnCharacter {
     const Vec3 up = Snap(up_raw);
     left_raw = Sub(left_raw, Scale(up, Dot(left_raw, up)));
     if (!(Norm(left_raw) > 0)) {
-      Fail(source_, "cannot find left and right: map both hips or both shoulders");
+      ThrowConfigError(source_.origin,
+                       "cannot find left and right: map both hips or both shoulders");
     }
     const Vec3 left = Snap(left_raw);
     const Vec3 forward = Cross(left, up);
@@ -282,7 +281,8 @@ double LegLengthScale(const SourceOnCharacter& view, const std::map<std::string,
     }
   }
   if (!(source_leg > 0)) {
-    Fail(view.source(), "cannot find the leg length to scale by: map hips, knees and ankles");
+    ThrowConfigError(view.source().origin,
+                     "cannot find the leg length to scale by: map hips, knees and ankles");
   }
   return char_leg / source_leg;
 }
@@ -791,9 +791,10 @@ MotionClip Retarget(const SkeletonAnimation& source, const JointMapping& mapping
   AlignHingesWithMotion(view, character, char_rest, options, &aligned);
   const int last = options.last_frame < 0 ? source.num_frames() - 1 : options.last_frame;
   if (options.first_frame < 0 || last >= source.num_frames() || last - options.first_frame < 1) {
-    Fail(source, "frame range " + std::to_string(options.first_frame) + ".." +
-                     std::to_string(last) + " needs at least two of the file's " +
-                     std::to_string(source.num_frames()) + " frames");
+    ThrowConfigError(source.origin, "frame range " + std::to_string(options.first_frame) + ".." +
+                                        std::to_string(last) +
+                                        " needs at least two of the file's " +
+                                        std::to_string(source.num_frames()) + " frames");
   }
   if (options.feet == ImportOptions::Feet::kFloor) {
     LevelFeet(view, options.first_frame, last, scale, &aligned, warnings);

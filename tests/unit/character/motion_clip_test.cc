@@ -20,6 +20,7 @@
 #include "character/motion_io.h"
 #include "character/skeleton.h"
 #include "common/config_section.h"
+#include "tests/unit/error_of.h"
 
 namespace ragdoll::character {
 namespace {
@@ -59,20 +60,8 @@ void ExpectPoseNear(const Pose& actual, const Pose& expected, double tolerance,
   }
 }
 
-// The message of the ConfigError that `parse` throws, or "" (and a failure) if it throws none.
-template <typename F>
-std::string ErrorOf(F parse) {
-  try {
-    parse();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a ConfigError";
-  return "";
-}
-
 std::string ParseError(const std::string& text, const std::string& origin) {
-  return ErrorOf([&] { ParseMotion(text, origin); });
+  return ConfigErrorOf([&] { ParseMotion(text, origin); });
 }
 
 // Replaces the single occurrence of `from` in `text`.
@@ -795,12 +784,12 @@ class TempDir {
 };
 
 TEST(LoadMotion, NamesAnUnreadableOrBadFile) {
-  EXPECT_THAT(ErrorOf([] { LoadMotion("/nonexistent/clips/walk.json"); }),
+  EXPECT_THAT(ConfigErrorOf([] { LoadMotion("/nonexistent/clips/walk.json"); }),
               HasSubstr("/nonexistent/clips/walk.json: cannot open motion file"));
   TempDir dir;
   std::string path = dir / "bad.json";
   std::ofstream(path) << Replace(kTinyClip, "\"right_knee\"]", "\"left_foot\"]");
-  EXPECT_THAT(ErrorOf([&] { LoadMotion(path); }),
+  EXPECT_THAT(ConfigErrorOf([&] { LoadMotion(path); }),
               HasSubstr(path + ": joints: unknown joint 'left_foot'"));
 }
 

@@ -9,23 +9,13 @@
 #include <string>
 #include <vector>
 
+#include "tests/unit/error_of.h"
+
 namespace ragdoll {
 namespace {
 
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-// The message of the ConfigError that `f` throws, or "" (and a failure) if it throws none.
-template <typename F>
-std::string ErrorOf(F f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected a ConfigError";
-  return "";
-}
 
 TEST(ConfigSection, GetReadsValuesOrFallsBack) {
   ConfigSection s = ConfigSection::FromString(
@@ -64,14 +54,14 @@ TEST(ConfigSection, AKeyWithoutAValueCountsAsAbsent) {
 
 TEST(ConfigSection, TypeErrorNamesFileLineAndKey) {
   ConfigSection s = ConfigSection::FromString("name: walker\nsubsteps: many\n", "test.yaml");
-  EXPECT_EQ(ErrorOf([&] { s.Get<int>("substeps", 20); }),
+  EXPECT_EQ(ConfigErrorOf([&] { s.Get<int>("substeps", 20); }),
             "test.yaml:2: substeps: cannot read 'many' as the expected type");
-  EXPECT_THAT(ErrorOf([&] { s.Get<double>("name", 0.0); }),
+  EXPECT_THAT(ConfigErrorOf([&] { s.Get<double>("name", 0.0); }),
               HasSubstr("test.yaml:1: name: cannot read 'walker'"));
   ConfigSection list = ConfigSection::FromString("a: 1\nsubsteps: [1, 2]\n", "list.yaml");
-  EXPECT_EQ(ErrorOf([&] { list.Get<int>("substeps", 20); }),
+  EXPECT_EQ(ConfigErrorOf([&] { list.Get<int>("substeps", 20); }),
             "list.yaml:2: substeps: expected a single value");
-  EXPECT_THAT(ErrorOf([&] { list.GetStringList("a", {}); }),
+  EXPECT_THAT(ConfigErrorOf([&] { list.GetStringList("a", {}); }),
               HasSubstr("list.yaml:1: a: expected a list"));
 }
 
@@ -80,14 +70,14 @@ TEST(ConfigSection, UnknownKeyGetsTheClosestKnownKey) {
   s.Get<int>("substeps", 20);
   s.Get<double>("control_frequency", 30.0);
   s.Get<int>("max_episode_steps", 300);
-  EXPECT_EQ(ErrorOf([&] { s.Finish(); }),
+  EXPECT_EQ(ConfigErrorOf([&] { s.Finish(); }),
             "test.yaml:2: unknown key 'control_frequncy'; did you mean 'control_frequency'?");
 
   // Nothing close: the valid keys are listed instead.
   ConfigSection far = ConfigSection::FromString("substeps: 3\nzzzzzzzzzz: 1\n", "test.yaml");
   far.Get<int>("substeps", 20);
   far.Get<int>("max_episode_steps", 300);
-  std::string message = ErrorOf([&] { far.Finish(); });
+  std::string message = ConfigErrorOf([&] { far.Finish(); });
   EXPECT_THAT(message, HasSubstr("test.yaml:2: unknown key 'zzzzzzzzzz'"));
   EXPECT_THAT(message, Not(HasSubstr("did you mean")));
   EXPECT_THAT(message, HasSubstr("valid keys here: max_episode_steps substeps"));
@@ -101,13 +91,13 @@ TEST(ConfigSection, NestedSectionsPrefixTheirKeys) {
   s.Get<int>("seed", 0);
   ConfigSection env = s.Section("environment");
   EXPECT_EQ(env.Get<std::string>("motion", ""), "walk.json");
-  EXPECT_EQ(ErrorOf([&] { env.Get<int>("substeps", 20); }),
+  EXPECT_EQ(ConfigErrorOf([&] { env.Get<int>("substeps", 20); }),
             "exp.yaml:4: environment.substeps: cannot read 'lots' as the expected type");
-  EXPECT_EQ(ErrorOf([&] { env.Section("reward").Get<double>("com_weight", 0.1); }),
+  EXPECT_EQ(ConfigErrorOf([&] { env.Section("reward").Get<double>("com_weight", 0.1); }),
             "exp.yaml:7: environment.reward.com_weight: cannot read 'heavy' as the expected type");
-  EXPECT_EQ(ErrorOf([&] { env.Fail("motion", "no such clip"); }),
+  EXPECT_EQ(ConfigErrorOf([&] { env.Fail("motion", "no such clip"); }),
             "exp.yaml:3: environment.motion: no such clip");
-  EXPECT_EQ(ErrorOf([&] { env.Finish(); }),
+  EXPECT_EQ(ConfigErrorOf([&] { env.Finish(); }),
             "exp.yaml:5: unknown key 'environment.substep'; did you mean 'substeps'?");
   // The parent does not check its children's keys, only that the section itself was read.
   s.Finish();
@@ -115,7 +105,7 @@ TEST(ConfigSection, NestedSectionsPrefixTheirKeys) {
   ConfigSection learner = s.Section("learner");
   EXPECT_EQ(learner.Get<int>("batch_size", 512), 512);
   learner.Finish();
-  EXPECT_THAT(ErrorOf([&] { s.Section("seed"); }),
+  EXPECT_THAT(ConfigErrorOf([&] { s.Section("seed"); }),
               HasSubstr("exp.yaml:1: seed: expected a mapping of keys"));
 }
 
@@ -143,9 +133,10 @@ TEST(ConfigSection, GetPathResolvesAgainstTheConfigFolder) {
 }
 
 TEST(ConfigSection, SyntaxErrorNamesTheLine) {
-  EXPECT_THAT(ErrorOf([] { ConfigSection::FromString("a: 1\nb: 2\nc: d: e\n", "broken.yaml"); }),
-              HasSubstr("broken.yaml:3: YAML syntax error"));
-  EXPECT_THAT(ErrorOf([] { ConfigSection::FromString("- a\n- b\n", "list.yaml"); }),
+  EXPECT_THAT(
+      ConfigErrorOf([] { ConfigSection::FromString("a: 1\nb: 2\nc: d: e\n", "broken.yaml"); }),
+      HasSubstr("broken.yaml:3: YAML syntax error"));
+  EXPECT_THAT(ConfigErrorOf([] { ConfigSection::FromString("- a\n- b\n", "list.yaml"); }),
               HasSubstr("list.yaml: the top level must be a mapping"));
 
   std::filesystem::path dir = std::filesystem::temp_directory_path() /
@@ -153,10 +144,10 @@ TEST(ConfigSection, SyntaxErrorNamesTheLine) {
   std::filesystem::create_directories(dir);
   std::string file = (dir / "broken.yaml").string();
   std::ofstream(file) << "a: 1\nb: 2\n  c: 3\nd: 4\n";  // line 3 is indented under a scalar
-  EXPECT_THAT(ErrorOf([&] { ConfigSection::FromFile(file); }),
+  EXPECT_THAT(ConfigErrorOf([&] { ConfigSection::FromFile(file); }),
               HasSubstr(file + ":3: YAML syntax error"));
   std::filesystem::remove_all(dir);
-  EXPECT_THAT(ErrorOf([] { ConfigSection::FromFile("/nonexistent/ragdoll.yaml"); }),
+  EXPECT_THAT(ConfigErrorOf([] { ConfigSection::FromFile("/nonexistent/ragdoll.yaml"); }),
               HasSubstr("/nonexistent/ragdoll.yaml: cannot open config file"));
 }
 

@@ -15,20 +15,10 @@
 #include "eval/evaluation.h"
 #include "eval/push_evaluation.h"
 #include "eval/recovery_evaluation.h"
+#include "tests/unit/error_of.h"
 
 namespace ragdoll::eval {
 namespace {
-
-// The message of the ConfigError `parse` throws, or "" when it does not throw.
-template <typename F>
-std::string ErrorOf(F parse) {
-  try {
-    parse();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST(EvalFile, ReadsBackWhatEvalComposesFromEachProtocol) {
   EvaluationResult episodes;
@@ -166,11 +156,11 @@ TEST(EvalFile, ReadsFilesOfEveryVersion) {
   EXPECT_DOUBLE_EQ(pushed.push_directions[0].velocity_change, 1.5);
   EXPECT_TRUE(pushed.push_directions[1].at_limit);
 
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseEvaluationJson("{\"episodes\": 3", "e.json");
             }).rfind("e.json: not JSON (", 0),
             0u);
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseEvaluationJson("{\"episodes\": 3}", "e.json");
             }).rfind("e.json: not an evaluation written by `ragdoll eval` (", 0),
             0u);

@@ -27,6 +27,7 @@
 #include "learner/ppo.h"
 #include "learner/replica_group.h"
 #include "learner/trainer_config.h"
+#include "tests/unit/error_of.h"
 
 namespace ragdoll::learner {
 namespace {
@@ -408,17 +409,6 @@ TEST_F(LearnerTest, BadCheckpointsAreRejectedNamingTheFile) {
   auto size = std::filesystem::file_size(good);
   std::filesystem::resize_file(good, size / 2);
   EXPECT_THROW(learner.Load(good), ConfigError);
-}
-
-// The error `f` throws, or "" when it throws none.
-template <typename F>
-std::string ErrorOf(F f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST_F(LearnerTest, CheckpointFilesCarryAChecksumThatCatchesTruncationAndBitFlips) {

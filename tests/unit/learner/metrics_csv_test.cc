@@ -11,20 +11,10 @@
 #include <iterator>
 
 #include "common/config_section.h"
+#include "tests/unit/error_of.h"
 
 namespace ragdoll::learner {
 namespace {
-
-// The message of the ConfigError `parse` throws, or "" when it does not throw.
-template <typename F>
-std::string ErrorOf(F parse) {
-  try {
-    parse();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST(MetricsCsv, ReadsColumnsByNameWithExtraColumnsAnywhere) {
   // A column the learner may add later (in the middle, to be sure order does not matter).
@@ -59,30 +49,33 @@ TEST(MetricsCsv, ReadsBackWhatTheLearnerWritesWithWindowsLineEndsToo) {
 }
 
 TEST(MetricsCsv, RefusesMalformedFilesNamingFileLineAndColumn) {
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("", "runs/a/metrics.csv"); }),
+  EXPECT_EQ(ConfigErrorOf([] { ParseMetricsCsv("", "runs/a/metrics.csv"); }),
             "runs/a/metrics.csv:1: no header: the first line must name the columns "
             "(iteration,version,samples,...)");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("1,4096,3.5\n2,8192,7\n", "runs/a/metrics.csv"); }),
+  EXPECT_EQ(ConfigErrorOf([] { ParseMetricsCsv("1,4096,3.5\n2,8192,7\n", "runs/a/metrics.csv"); }),
             "runs/a/metrics.csv:1: no header: the first line must name the columns "
             "(iteration,version,samples,...), found '1' in column 1");
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,3.5,0\n8192,7,abc\n", "m.csv");
             }),
             "m.csv:3: column 3 (fall_rate): 'abc' is not a number");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,,0\n", "m.csv"); }),
-            "m.csv:2: column 2 (elapsed_s): '' is not a number");
-  EXPECT_EQ(ErrorOf([] {
+  EXPECT_EQ(
+      ConfigErrorOf([] { ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,,0\n", "m.csv"); }),
+      "m.csv:2: column 2 (elapsed_s): '' is not a number");
+  EXPECT_EQ(ConfigErrorOf([] {
               ParseMetricsCsv("samples,elapsed_s,fall_rate\n4096,3.5\n8192,7,0\n", "m.csv");
             }),
             "m.csv:2: 2 cells, but the header names 3 columns");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("iteration,elapsed_s\n1,3.5\n", "m.csv"); }),
+  EXPECT_EQ(ConfigErrorOf([] { ParseMetricsCsv("iteration,elapsed_s\n1,3.5\n", "m.csv"); }),
             "m.csv: no 'samples' column (the curves are drawn against samples and elapsed_s)");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s,samples\n1,2,3\n", "m.csv"); }),
+  EXPECT_EQ(ConfigErrorOf([] { ParseMetricsCsv("samples,elapsed_s,samples\n1,2,3\n", "m.csv"); }),
             "m.csv:1: column 'samples' appears twice in the header");
   // Without its newline the last line may be half written: dropped, unless it has too many cells.
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s\n4096,3.5\n8192,x", "m.csv"); }), "");
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s\n4096,3.5\n8192,7,1", "m.csv"); }),
-            "m.csv:3: 3 cells, but the header names 2 columns");
+  EXPECT_EQ(ConfigErrorOf([] { ParseMetricsCsv("samples,elapsed_s\n4096,3.5\n8192,x", "m.csv"); }),
+            "");
+  EXPECT_EQ(
+      ConfigErrorOf([] { ParseMetricsCsv("samples,elapsed_s\n4096,3.5\n8192,7,1", "m.csv"); }),
+      "m.csv:3: 3 cells, but the header names 2 columns");
 }
 
 TEST(MetricsCsv, DropsALastLineCaughtHalfWritten) {
@@ -90,8 +83,9 @@ TEST(MetricsCsv, DropsALastLineCaughtHalfWritten) {
   EXPECT_EQ(m.rows, 1u);
   EXPECT_EQ(m.note, "m.csv:3: last line incomplete (being written?), left out");
   // The same line with its newline is a malformed file.
-  EXPECT_EQ(ErrorOf([] { ParseMetricsCsv("samples,elapsed_s,fall_rate\n8192,7\n", "m.csv"); }),
-            "m.csv:2: 2 cells, but the header names 3 columns");
+  EXPECT_EQ(
+      ConfigErrorOf([] { ParseMetricsCsv("samples,elapsed_s,fall_rate\n8192,7\n", "m.csv"); }),
+      "m.csv:2: 2 cells, but the header names 3 columns");
 }
 
 TEST(MetricsCsv, ResumedRunsAppendInTheirFilesOwnColumnOrder) {

@@ -5,6 +5,7 @@
 #include <regex>
 
 #include "common/config_section.h"
+#include "tests/unit/error_of.h"
 
 namespace ragdoll::report {
 namespace {
@@ -24,17 +25,6 @@ std::string Row(int iteration, double samples, double elapsed, int episodes, dou
                 "0.5,0.003,1.2,0,0\n",
                 iteration, iteration, samples, elapsed, episodes, normalized, length, fall);
   return text;
-}
-
-// The message of the ConfigError `parse` throws, or "" when it does not throw.
-template <typename F>
-std::string ErrorOf(F parse) {
-  try {
-    parse();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
 }
 
 struct Polyline {

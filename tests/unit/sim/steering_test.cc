@@ -15,21 +15,13 @@
 #include "sim/motion_set.h"
 #include "sim/observation.h"
 #include "sim/steering_task.h"
+#include "tests/unit/error_of.h"
 #include "tests/unit/sim/turned_clip.h"
 
 namespace ragdoll::sim {
 namespace {
 
 const std::string kAssets = RAGDOLL_ASSETS_DIR;
-
-std::string ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
 
 EnvConfig Read(const std::string& yaml) {
   ConfigSection root = ConfigSection::FromString(yaml, "steer.yaml");
