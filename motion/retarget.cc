@@ -52,6 +52,7 @@ Mat3 Transpose(const Mat3& m) {
   }
   return t;
 }
+
 Mat3 Mul(const Mat3& a, const Mat3& b) {
   Mat3 r{};
   for (int i = 0; i < 3; ++i) {

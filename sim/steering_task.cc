@@ -243,6 +243,7 @@ Task& Unwrapped(Task& task) {
   auto* recovery = dynamic_cast<RecoveryTask*>(&task);
   return recovery != nullptr ? recovery->inner() : task;
 }
+
 const Task& Unwrapped(const Task& task) {
   const auto* recovery = dynamic_cast<const RecoveryTask*>(&task);
   return recovery != nullptr ? recovery->inner() : task;
