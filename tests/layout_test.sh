@@ -20,14 +20,18 @@ for ((i = 0; i < ${#rooms[@]}; ++i)); do
     fi
   done < <(grep -rnE '^#include "[a-z_]+/' "$room" --include='*.h' --include='*.cc' --include='*.in' || true)
 done
-# Every top-level folder with C++ sources is a room of the list.
-for dir in */; do
-  dir=${dir%/}
-  case " ${rooms[*]} tests build " in *" $dir "*) continue ;; esac
-  if find "$dir" -name '*.cc' -o -name '*.h' | grep -q .; then
-    echo "FAIL: $dir/ holds C++ sources but is not in the rooms' order (tests/layout_test.sh)"
-    failed=1
-  fi
+# Every top-level folder with C++ sources is a room of the list (the sources git tracks; outside
+# a checkout, every folder but the build folders).
+if git rev-parse --is-inside-work-tree > /dev/null 2>&1; then
+  source_dirs=$(git ls-files '*.cc' '*.h' | grep / | cut -d/ -f1 | sort -u)
+else
+  source_dirs=$(find . -mindepth 2 \( -name '*.cc' -o -name '*.h' \) -not -path './build*' |
+    cut -d/ -f2 | sort -u)
+fi
+for dir in $source_dirs; do
+  case " ${rooms[*]} tests " in *" $dir "*) continue ;; esac
+  echo "FAIL: $dir/ holds C++ sources but is not in the rooms' order (tests/layout_test.sh)"
+  failed=1
 done
 [ "$failed" -eq 0 ] && echo "PASS: ${#rooms[@]} rooms, each including only rooms below it"
 exit "$failed"
