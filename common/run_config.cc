@@ -1,10 +1,8 @@
 #include "common/run_config.h"
 
-#include "common/whole_file.h"
-
 #include <filesystem>
-#include <fstream>
-#include <iterator>
+
+#include "common/whole_file.h"
 
 namespace ragdoll {
 namespace fs = std::filesystem;
@@ -20,8 +18,8 @@ void WriteRunConfig(const std::string& run_dir, const std::string& text, bool re
 }
 
 std::string ReadRunConfig(const std::string& run_dir) {
-  std::ifstream in(RunConfigPath(run_dir));
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  const std::string path = RunConfigPath(run_dir);
+  return fs::exists(path) ? ReadWholeFile(path) : std::string();
 }
 
 }  // namespace ragdoll

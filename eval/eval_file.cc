@@ -1,12 +1,9 @@
 #include "eval/eval_file.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
-#include <stdexcept>
 
 #include "common/config_section.h"
 #include "common/whole_file.h"
